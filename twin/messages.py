@@ -1,0 +1,33 @@
+"""What crosses the world/onboard boundary: timestamped sensor readings.
+
+This module is shared by both sides. It imports nothing from the world (no MuJoCo, no truth), so the
+onboard package may depend on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One sample of one sensor, as the vehicle computer receives it.
+
+    Attributes:
+        sensor: The sensor's name (unique in a run, e.g. ``"imu"``).
+        t: Sim time in seconds at which the measurement is valid (the sampling instant).
+        t_delivered: Sim time in seconds at which the vehicle computer receives it
+            (``t`` plus the sensor's delay).
+        values: Channel name to value (numpy arrays; scalars are 0-d or shape (1,)).
+    """
+
+    sensor: str
+    t: float
+    t_delivered: float
+    values: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __getitem__(self, channel: str) -> np.ndarray:
+        return self.values[channel]
