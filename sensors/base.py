@@ -16,7 +16,8 @@ import numpy as np
 class WorldView(Protocol):
     """What a sensor may look at: the true state of the world at the current instant.
 
-    Implemented by :class:`twin.plant.Plant`. Everything here is truth; sensors turn it into readings.
+    Implemented by :class:`twin.plant.Plant`. Everything here is truth; sensors turn it into
+    readings.
     """
 
     @property
@@ -70,7 +71,8 @@ class WorldView(Protocol):
 class SensorSpec:
     """Base class of every sensor's spec: what a datasheet says about it.
 
-    Subclasses add their own fields (frozen dataclasses too). ``rate_hz`` and ``delay_s`` are common.
+    Subclasses add their own fields (frozen dataclasses too); ``rate_hz`` and ``delay_s`` are
+    common to all.
     """
 
     rate_hz: float = 100.0
@@ -93,7 +95,7 @@ class Sensor(abc.ABC):
 
     Args:
         spec: The sensor's spec.
-        name: Unique name in a run (defaults to ``kind``); readings carry it and Rerun logs under it.
+        name: Unique name in a run (defaults to ``kind``); readings carry it, Rerun logs under it.
         site: The MJCF site the sensor is mounted at (defaults to ``default_site``).
     """
 
@@ -105,7 +107,8 @@ class Sensor(abc.ABC):
     def __init__(self, spec: SensorSpec, *, name: str | None = None, site: str | None = None):
         if not isinstance(spec, self.spec_type):
             raise TypeError(
-                f"{type(self).__name__} needs a {self.spec_type.__name__}, got {type(spec).__name__}"
+                f"{type(self).__name__} needs a {self.spec_type.__name__}, "
+                f"got {type(spec).__name__}"
             )
         spec.validate()
         self.spec = spec

@@ -1,0 +1,1016 @@
+"""TOML sea-trial files to validated :class:`~scenarios.schema.Scenario` objects.
+
+The whole file is checked before anything runs, and every problem is collected, so a user fixes a
+file in one pass: :class:`ScenarioError` carries one line per problem, each naming the field by its
+dotted path (``mission.legs[2].speed_mps``), the offending value and what is allowed.
+
+Checks, in order: TOML syntax; each field's presence, type (no strings for numbers, no booleans for
+numbers, no NaN or infinity), range or choices; unknown keys (in every table); then cross-field
+rules (tank limits, seabed clearance, profile order, lawnmower geometry). A cross-field rule is
+checked only on fields that passed their own checks, so one mistake gives one error.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tomllib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from datetime import UTC, date, datetime, time
+from pathlib import Path
+from typing import Any, TypeVar
+
+from scenarios.schema import (
+    ATTITUDE_SOURCES,
+    CURRENT_KINDS,
+    JERLOV_TYPES,
+    MISSION_KINDS,
+    SCENES,
+    TANK_FLOOR_DEPTH_M,
+    TANK_LENGTH_M,
+    TANK_MAX_DEPTH_M,
+    TANK_WIDTH_M,
+    Autopilot,
+    Current,
+    HeadingLeg,
+    Initial,
+    LawnmowerMission,
+    Leg,
+    LegsMission,
+    Mission,
+    OverrideValue,
+    Place,
+    ProfilePoint,
+    Recording,
+    Scenario,
+    Sensors,
+    StationKeepingMission,
+    Vec2,
+    Water,
+    WaypointLeg,
+)
+
+T = TypeVar("T")
+
+# ---- error text --------------------------------------------------------------------------------
+
+MSG_MISSING = "missing; required: {expected}"
+MSG_WRONG_TYPE = "{value} is {type_name}; expected {expected}"
+MSG_NOT_FINITE = "{value} is not a finite number; expected {expected}"
+MSG_OUT_OF_RANGE = "{value} is out of range; allowed: {allowed}"
+MSG_NOT_A_CHOICE = "{value} is not one of {choices}"
+MSG_BAD_NAME = "{value} is not a valid name; use lowercase letters, digits and '_' ([a-z0-9_]+)"
+MSG_UNKNOWN_KEY = "unknown key; allowed keys{where}: {allowed}"
+MSG_NOT_FOR_KIND = "not used {context}; its keys: {allowed}"
+MSG_NAIVE_TIME = (
+    "{value} has no UTC offset; write a timezone-aware time such as 2021-09-03T02:00:00Z "
+    "or 2021-09-03T10:00:00+08:00"
+)
+MSG_LEG_BOTH = (
+    "has both to_m and heading_deg; a leg is EITHER a waypoint leg (to_m, depth_m, speed_mps) "
+    "OR a heading leg (heading_deg, duration_s, depth_m, speed_mps)"
+)
+MSG_LEG_NEITHER = (
+    "has neither to_m nor heading_deg; a leg is EITHER a waypoint leg (to_m, depth_m, speed_mps) "
+    "OR a heading leg (heading_deg, duration_s, depth_m, speed_mps)"
+)
+MSG_TANK_DEPTH = (
+    "{value:g} is too deep for the tank scene (floor at {floor:g} m); allowed: {allowed}"
+)
+MSG_TANK_OUTSIDE = (
+    "{what} lies outside the tank; the {length:g} m x {width:g} m tank spans "
+    "East {east}, North {north}"
+)
+MSG_TANK_SEABED = (
+    "not allowed in the tank scene, whose floor is part of the scene at {floor:g} m; remove it"
+)
+MSG_BELOW_SEABED = "{value:g} is not above the seabed (water.seabed_depth_m = {seabed:g})"
+MSG_ACCEPT_TOO_BIG = (
+    "{value} is not smaller than the shortest lawnmower leg ({shortest:g} m); "
+    "waypoints would be skipped"
+)
+MSG_PROFILE_ORDER = (
+    "{value:g} is not deeper than the previous point's {prev:g}; depths must increase"
+)
+
+# Pattern of line and column at the end of tomllib's messages (Python 3.11 has no attributes).
+_TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+_NAME = re.compile(r"[a-z0-9_]+")
+_SHOW_MAX_CHARS = 60
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run: every problem found, one per line.
+
+    Attributes:
+        errors: One message per problem, each starting with the field's dotted path.
+        source: The file (or the name given to :func:`parse_scenario`).
+    """
+
+    def __init__(self, errors: Sequence[str], source: str = "<scenario>"):
+        self.errors: list[str] = list(errors)
+        self.source = source
+        if len(self.errors) == 1:
+            text = f"{source}: {self.errors[0]}"
+        else:
+            lines = "\n".join(f"  {e}" for e in self.errors)
+            text = f"{source}: {len(self.errors)} problems:\n{lines}"
+        super().__init__(text)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickle by the constructor's arguments (the default would pass the formatted text as
+        # ``errors``): the error must cross process boundaries intact in Monte Carlo campaigns.
+        return (type(self), (self.errors, self.source))
+
+
+# ---- ranges ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Range:
+    """A closed, open or half-open interval of allowed numbers; None for no bound."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def __contains__(self, x: float) -> bool:
+        if self.lo is not None and (x <= self.lo if self.lo_open else x < self.lo):
+            return False
+        return not (self.hi is not None and (x >= self.hi if self.hi_open else x > self.hi))
+
+    def __str__(self) -> str:
+        if self.hi is None:
+            return f"{'>' if self.lo_open else '>='} {self.lo:g}" if self.lo is not None else "any"
+        if self.lo is None:
+            return f"{'<' if self.hi_open else '<='} {self.hi:g}"
+        left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
+        return f"{left}{self.lo:g}, {self.hi:g}{right}"
+
+
+NON_NEGATIVE = Range(0.0)
+POSITIVE = Range(0.0, lo_open=True)
+LATITUDE_DEG = Range(-90.0, 90.0)
+LONGITUDE_DEG = Range(-180.0, 180.0)
+COMPASS_DEG = Range(0.0, 360.0, hi_open=True)
+ROLL_DEG = Range(-180.0, 180.0)
+PITCH_DEG = Range(-90.0, 90.0)
+DURATION_S = Range(0.0, 86400.0, lo_open=True)
+DENSITY_KG_M3 = Range(990.0, 1050.0)
+TEMPERATURE_C = Range(-2.0, 40.0)
+SALINITY_PSU = Range(0.0, 42.0)
+CURRENT_SPEED_MPS = Range(0.0, 3.0)
+GUST_SIGMA_MPS = Range(0.0, 1.0)
+VEHICLE_SPEED_MPS = Range(0.0, 3.0)  # the initial speed: may be 0 (starting at rest)
+COMMANDED_SPEED_MPS = Range(0.0, 2.5, lo_open=True)  # REMUS-100's top speed is about 2.5 m/s
+RATE_HZ = Range(0.0, 1000.0, lo_open=True)
+CAMERA_RATE_HZ = Range(0.0, 30.0, lo_open=True)
+CAMERA_WIDTH = Range(16, 1920)
+CAMERA_HEIGHT = Range(16, 1080)
+LANES = Range(1)
+TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
+TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
+TANK_NORTH_M = Range(-TANK_WIDTH_M / 2, TANK_WIDTH_M / 2, lo_open=True, hi_open=True)
+
+
+# ---- showing values in messages ----------------------------------------------------------------
+
+
+def _show(value: Any) -> str:
+    """A value as the user wrote it (TOML spelling), shortened."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    elif isinstance(value, float):
+        text = "nan" if math.isnan(value) else ("inf" if value == math.inf else repr(value))
+        text = "-inf" if value == -math.inf else text
+    elif isinstance(value, datetime | date | time):
+        text = value.isoformat()
+    elif isinstance(value, list | tuple):
+        text = "[" + ", ".join(_show(v) for v in value) + "]"
+    elif isinstance(value, Mapping):
+        text = "{" + ", ".join(f"{k} = {_show(v)}" for k, v in value.items()) + "}"
+    else:
+        text = repr(value)
+    return text if len(text) <= _SHOW_MAX_CHARS else text[: _SHOW_MAX_CHARS - 3] + "..."
+
+
+def _type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a float"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, datetime):
+        return "a datetime"
+    if isinstance(value, date):
+        return "a date"
+    if isinstance(value, time):
+        return "a time"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, Mapping):
+        return "a table"
+    return f"a {type(value).__name__}"
+
+
+def _choices(options: Iterable[str]) -> str:
+    return ", ".join(_show(o) for o in options)
+
+
+# ---- the checker -------------------------------------------------------------------------------
+
+_MISSING: Any = object()
+
+
+class _Report:
+    """Collects problems as ``path: message`` lines, and the facts the cross-field rules need.
+
+    Facts are recorded field by field as each passes its own checks, so a bad value in one field
+    of a table does not hide a cross-field problem in another (a bad ``initial.position_m`` does
+    not keep ``initial.depth_m = 10`` in the tank from being reported).
+    """
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.depths: list[_Depth] = []  # every commanded depth
+        self.points: list[_Point] = []  # every horizontal position the vehicle is sent to
+        self.seabed_m: float | None = None
+
+    def depth(self, path: str, depth_m: float | None) -> None:
+        """Record a commanded depth that passed its own checks (None: it did not)."""
+        if depth_m is not None:
+            self.depths.append(_Depth(path, depth_m))
+
+    def point(self, path: str, what: str, en_m: Vec2 | None) -> None:
+        """Record a commanded (East, North) position that passed its own checks."""
+        if en_m is not None:
+            self.points.append(_Point(path, what, en_m))
+
+    def add(self, path: str, message: str) -> None:
+        self.lines.append(f"{path}: {message}" if path else message)
+
+
+def _expected(noun: str, allowed: Range) -> str:
+    """'a number in [0, 360)', 'a number > 0', 'a number'."""
+    if allowed.lo is None and allowed.hi is None:
+        return noun
+    if allowed.lo is not None and allowed.hi is not None:
+        return f"{noun} in {allowed}"
+    return f"{noun} {allowed}"
+
+
+def _number(errs: _Report, path: str, value: Any, allowed: Range) -> float | None:
+    expected = _expected("a number", allowed)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        errs.add(
+            path,
+            MSG_WRONG_TYPE.format(
+                value=_show(value), type_name=_type_name(value), expected=expected
+            ),
+        )
+        return None
+    x = float(value)
+    if not math.isfinite(x):
+        errs.add(path, MSG_NOT_FINITE.format(value=_show(value), expected=expected))
+        return None
+    if x not in allowed:
+        errs.add(path, MSG_OUT_OF_RANGE.format(value=_show(value), allowed=allowed))
+        return None
+    return x
+
+
+def _integer(errs: _Report, path: str, value: Any, allowed: Range) -> int | None:
+    expected = _expected("an integer", allowed)
+    # TOML keeps 3 and 3.0 apart; an integer field given 3.0 is almost always a typo elsewhere.
+    if isinstance(value, bool) or not isinstance(value, int):
+        errs.add(
+            path,
+            MSG_WRONG_TYPE.format(
+                value=_show(value), type_name=_type_name(value), expected=expected
+            ),
+        )
+        return None
+    if value not in allowed:
+        errs.add(path, MSG_OUT_OF_RANGE.format(value=_show(value), allowed=allowed))
+        return None
+    return value
+
+
+def _vec2(errs: _Report, path: str, value: Any) -> Vec2 | None:
+    expected = "[East, North] in metres, two finite numbers"
+    if not isinstance(value, list) or len(value) != 2:
+        if isinstance(value, list):
+            n = len(value)
+            errs.add(
+                path, f"{_show(value)} has {n} element{'' if n == 1 else 's'}; expected {expected}"
+            )
+        else:
+            errs.add(
+                path,
+                MSG_WRONG_TYPE.format(
+                    value=_show(value), type_name=_type_name(value), expected=expected
+                ),
+            )
+        return None
+    e = _number(errs, f"{path}[0]", value[0], Range())
+    n = _number(errs, f"{path}[1]", value[1], Range())
+    return None if e is None or n is None else (e, n)
+
+
+class _Table:
+    """One TOML table being read: typed getters that record problems and the keys they know."""
+
+    def __init__(self, report: _Report, path: str, data: Mapping[str, Any]):
+        self.report = report
+        self.path = path
+        self.data = data
+        self.known: list[str] = []
+
+    def at(self, key: str) -> str:
+        """Dotted path of a key in this table."""
+        return f"{self.path}.{key}" if self.path else key
+
+    def _raw(self, key: str, default: Any, expected: str) -> Any:
+        """The raw value, the default, or _MISSING (after reporting it) when required."""
+        self.known.append(key)
+        if key in self.data:
+            return self.data[key]
+        if default is _MISSING:
+            self.report.add(self.at(key), MSG_MISSING.format(expected=expected))
+        return _MISSING if default is _MISSING else _Default(default)
+
+    def number(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+        raw = self._raw(key, default, _expected("a number", allowed))
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        return _number(self.report, self.at(key), raw, allowed)
+
+    def integer(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+        raw = self._raw(key, default, _expected("an integer", allowed))
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        return _integer(self.report, self.at(key), raw, allowed)
+
+    def string(
+        self,
+        key: str,
+        *,
+        choices: Sequence[str] | None = None,
+        non_empty: bool = False,
+        default: Any = _MISSING,
+        expected: str = "",
+    ) -> Any:
+        expected = expected or (f"one of {_choices(choices)}" if choices else "a string")
+        raw = self._raw(key, default, expected)
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        if not isinstance(raw, str):
+            self.report.add(
+                self.at(key),
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected=expected
+                ),
+            )
+            return None
+        if choices is not None and raw not in choices:
+            self.report.add(
+                self.at(key), MSG_NOT_A_CHOICE.format(value=_show(raw), choices=_choices(choices))
+            )
+            return None
+        if non_empty and not raw.strip():
+            self.report.add(self.at(key), f"{_show(raw)} is empty; expected a non-empty string")
+            return None
+        return raw
+
+    def boolean(self, key: str, default: Any = _MISSING) -> Any:
+        raw = self._raw(key, default, "true or false")
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        if not isinstance(raw, bool):
+            self.report.add(
+                self.at(key),
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected="true or false"
+                ),
+            )
+            return None
+        return raw
+
+    def vec2(self, key: str, default: Any = _MISSING) -> Any:
+        raw = self._raw(key, default, "[East, North] in metres")
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        return _vec2(self.report, self.at(key), raw)
+
+    def table(
+        self, key: str, *, required: bool = False, expected: str = "a table"
+    ) -> _Table | None:
+        """A sub-table; an empty one when optional and absent; None when unusable."""
+        raw = self._raw(key, _MISSING if required else {}, expected)
+        if raw is _MISSING:
+            return None
+        if isinstance(raw, _Default):
+            raw = raw.value
+        if not isinstance(raw, Mapping):
+            self.report.add(
+                self.at(key),
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected=expected
+                ),
+            )
+            return None
+        return _Table(self.report, self.at(key), raw)
+
+    def tables(self, key: str, *, min_len: int, expected: str) -> list[_Table | None] | None:
+        """A required array of tables with at least ``min_len`` entries; None when unusable.
+
+        An entry that is not a table is reported and comes back as None, so that the others are
+        still checked.
+        """
+        raw = self._raw(key, _MISSING, expected)
+        if raw is _MISSING:
+            return None
+        if not isinstance(raw, list):
+            self.report.add(
+                self.at(key),
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected=expected
+                ),
+            )
+            return None
+        if len(raw) < min_len:
+            self.report.add(self.at(key), f"has {len(raw)} entries; expected {expected}")
+            return None
+        out: list[_Table | None] = []
+        for i, item in enumerate(raw):
+            path = f"{self.at(key)}[{i}]"
+            if not isinstance(item, Mapping):
+                self.report.add(
+                    path,
+                    MSG_WRONG_TYPE.format(
+                        value=_show(item), type_name=_type_name(item), expected="a table"
+                    ),
+                )
+                out.append(None)
+            else:
+                out.append(_Table(self.report, path, item))
+        return out
+
+    def finish(self, *, elsewhere: Iterable[str] = (), context: str = "") -> None:
+        """Report keys nobody asked for.
+
+        Keys in ``elsewhere`` belong to another variant of this table (another kind); they get a
+        message saying so instead of "unknown".
+        """
+        other = set(elsewhere)
+        allowed = ", ".join(self.known)
+        for key in self.data:
+            if key in self.known:
+                continue
+            if key in other:
+                msg = MSG_NOT_FOR_KIND.format(context=context, allowed=allowed)
+            else:
+                where = f" in [{self.path}]" if self.path else " at the top level"
+                msg = MSG_UNKNOWN_KEY.format(where=where, allowed=allowed)
+            self.report.add(self.at(key), msg)
+
+
+@dataclass(frozen=True, slots=True)
+class _Default:
+    """Marks a value that came from the schema's default rather than the file."""
+
+    value: Any
+
+
+def _all_set(*values: Any) -> bool:
+    return all(v is not None for v in values)
+
+
+def _build(ctor: Callable[..., T], **kwargs: Any) -> T | None:
+    """Build a dataclass only from values that passed their checks."""
+    return ctor(**kwargs) if _all_set(*kwargs.values()) else None
+
+
+# ---- sections ----------------------------------------------------------------------------------
+
+
+def _start_utc(top: _Table) -> datetime | None:
+    key, expected = "start_utc", "a timezone-aware datetime (TOML datetime or ISO-8601 string)"
+    raw = top._raw(key, _MISSING, expected)
+    if raw is _MISSING:
+        return None
+    errs, path = top.report, top.at(key)
+    value = raw
+    if isinstance(raw, str):
+        try:
+            value = datetime.fromisoformat(raw)
+        except ValueError:
+            errs.add(path, f"{_show(raw)} is not an ISO-8601 datetime; expected {expected}")
+            return None
+    if not isinstance(value, datetime):
+        errs.add(
+            path,
+            MSG_WRONG_TYPE.format(value=_show(raw), type_name=_type_name(raw), expected=expected),
+        )
+        return None
+    if value.tzinfo is None or value.utcoffset() is None:
+        errs.add(path, MSG_NAIVE_TIME.format(value=_show(raw)))
+        return None
+    return value.astimezone(UTC)
+
+
+def _place(t: _Table | None) -> Place | None:
+    if t is None:
+        return None
+    place = _build(
+        Place,
+        latitude_deg=t.number("latitude_deg", LATITUDE_DEG),
+        longitude_deg=t.number("longitude_deg", LONGITUDE_DEG),
+    )
+    t.finish()
+    return place
+
+
+def _water(t: _Table | None) -> Water | None:
+    if t is None:
+        return None
+    density = t.number("density_kg_m3", DENSITY_KG_M3, default=1025.0)
+    temperature = t.number("temperature_c", TEMPERATURE_C, default=15.0)
+    salinity = t.number("salinity_psu", SALINITY_PSU, default=35.0)
+    jerlov = t.string("jerlov_type", choices=JERLOV_TYPES, default="II")
+    seabed_given = "seabed_depth_m" in t.data
+    seabed = t.number("seabed_depth_m", POSITIVE, default=None)
+    t.report.seabed_m = seabed
+    t.finish()
+    if not _all_set(density, temperature, salinity, jerlov) or (seabed_given and seabed is None):
+        return None
+    return Water(density, temperature, salinity, jerlov, seabed)
+
+
+_CURRENT_KEYS = {
+    "none": ("kind",),
+    "constant": ("kind", "speed_mps", "toward_deg"),
+    "profile": ("kind", "profile"),
+    "gauss_markov": ("kind", "speed_mps", "toward_deg", "sigma_mps", "tau_s"),
+}
+
+
+def _current(t: _Table | None) -> Current | None:
+    if t is None:
+        return None
+    kind = t.string("kind", choices=CURRENT_KINDS, default="none")
+    if kind is None:
+        return None  # the other keys depend on the kind: checking them would only add noise
+    elsewhere = {k for keys in _CURRENT_KEYS.values() for k in keys}
+    current: Current | None = Current()
+    if kind == "constant":
+        current = _build(
+            Current,
+            kind=kind,
+            speed_mps=t.number("speed_mps", CURRENT_SPEED_MPS),
+            toward_deg=t.number("toward_deg", COMPASS_DEG),
+        )
+    elif kind == "gauss_markov":
+        current = _build(
+            Current,
+            kind=kind,
+            speed_mps=t.number("speed_mps", CURRENT_SPEED_MPS, default=0.0),
+            toward_deg=t.number("toward_deg", COMPASS_DEG, default=0.0),
+            sigma_mps=t.number("sigma_mps", GUST_SIGMA_MPS),
+            tau_s=t.number("tau_s", POSITIVE),
+        )
+    elif kind == "profile":
+        current = _build(Current, kind=kind, profile=_profile(t))
+    t.finish(elsewhere=elsewhere, context=f"by current.kind = {_show(kind)}")
+    return current
+
+
+def _profile(t: _Table) -> tuple[ProfilePoint, ...] | None:
+    tables = t.tables(
+        "profile",
+        min_len=2,
+        expected="an array of >= 2 {depth_m, speed_mps, toward_deg} tables, depths increasing",
+    )
+    if tables is None:
+        return None
+    points: list[ProfilePoint | None] = []
+    prev: float | None = None
+    for p in tables:
+        if p is None:
+            points.append(None)
+            continue
+        depth = p.number("depth_m", NON_NEGATIVE)
+        if depth is not None and prev is not None and depth <= prev:
+            t.report.add(p.at("depth_m"), MSG_PROFILE_ORDER.format(value=depth, prev=prev))
+            depth = None
+        prev = depth if depth is not None else prev
+        points.append(
+            _build(
+                ProfilePoint,
+                depth_m=depth,
+                speed_mps=p.number("speed_mps", CURRENT_SPEED_MPS),
+                toward_deg=p.number("toward_deg", COMPASS_DEG),
+            )
+        )
+        p.finish()
+    return tuple(p for p in points if p is not None) if _all_set(*points) else None
+
+
+def _initial(t: _Table | None) -> Initial | None:
+    if t is None:
+        return None
+    position = t.vec2("position_m", default=(0.0, 0.0))
+    depth = t.number("depth_m", NON_NEGATIVE, default=0.0)
+    t.report.depth(t.at("depth_m"), depth)
+    t.report.point(t.at("position_m"), "the start position", position)
+    initial = _build(
+        Initial,
+        position_m=position,
+        depth_m=depth,
+        heading_deg=t.number("heading_deg", COMPASS_DEG, default=0.0),
+        roll_deg=t.number("roll_deg", ROLL_DEG, default=0.0),
+        pitch_deg=t.number("pitch_deg", PITCH_DEG, default=0.0),
+        speed_mps=t.number("speed_mps", VEHICLE_SPEED_MPS, default=0.0),
+    )
+    t.finish()
+    return initial
+
+
+_WAYPOINT_LEG_KEYS = ("to_m", "depth_m", "speed_mps")
+_HEADING_LEG_KEYS = ("heading_deg", "duration_s", "depth_m", "speed_mps")
+
+
+def _leg(t: _Table) -> Leg | None:
+    has_to, has_heading = "to_m" in t.data, "heading_deg" in t.data
+    if has_to and has_heading:
+        t.report.add(t.path, MSG_LEG_BOTH)
+        return None
+    if not (has_to or has_heading):
+        t.report.add(t.path, MSG_LEG_NEITHER)
+        return None
+    leg: Leg | None
+    if has_to:
+        to = t.vec2("to_m")
+        depth = t.number("depth_m", NON_NEGATIVE)
+        t.report.point(t.at("to_m"), "the waypoint", to)
+        leg = _build(
+            WaypointLeg,
+            to_m=to,
+            depth_m=depth,
+            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+        )
+        t.finish(elsewhere=_HEADING_LEG_KEYS, context="by a waypoint leg (it has to_m)")
+    else:
+        leg = _build(
+            HeadingLeg,
+            heading_deg=t.number("heading_deg", COMPASS_DEG),
+            duration_s=t.number("duration_s", DURATION_S),
+            depth_m=(depth := t.number("depth_m", NON_NEGATIVE)),
+            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+        )
+        t.finish(elsewhere=_WAYPOINT_LEG_KEYS, context="by a heading leg (it has heading_deg)")
+    t.report.depth(t.at("depth_m"), depth)
+    return leg
+
+
+_MISSION_KEYS = {
+    "legs": ("kind", "acceptance_radius_m", "legs"),
+    "lawnmower": (
+        "kind",
+        "acceptance_radius_m",
+        "origin_m",
+        "heading_deg",
+        "lane_length_m",
+        "lane_spacing_m",
+        "lanes",
+        "depth_m",
+        "speed_mps",
+    ),
+    "station_keeping": (
+        "kind",
+        "acceptance_radius_m",
+        "center_m",
+        "depth_m",
+        "radius_m",
+        "speed_mps",
+    ),
+}
+
+
+def _mission(t: _Table | None) -> Mission | None:
+    if t is None:
+        return None
+    kind = t.string("kind", choices=MISSION_KINDS)
+    if kind is None:
+        return None  # the other keys depend on the kind: checking them would only add noise
+    accept = t.number("acceptance_radius_m", POSITIVE, default=5.0)
+    mission: Mission | None = None
+    if kind == "legs":
+        tables = t.tables(
+            "legs", min_len=1, expected="an array of >= 1 leg tables ([[mission.legs]])"
+        )
+        legs = None if tables is None else [_leg(x) if x is not None else None for x in tables]
+        if legs is not None and _all_set(*legs):
+            mission = _build(LegsMission, legs=tuple(legs), acceptance_radius_m=accept)
+    elif kind == "lawnmower":
+        geometry = {
+            "origin_m": t.vec2("origin_m"),
+            "heading_deg": t.number("heading_deg", COMPASS_DEG),
+            "lane_length_m": t.number("lane_length_m", POSITIVE),
+            "lane_spacing_m": t.number("lane_spacing_m", POSITIVE),
+            "lanes": t.integer("lanes", LANES),
+        }
+        depth = t.number("depth_m", NON_NEGATIVE)
+        t.report.depth(t.at("depth_m"), depth)
+        speed = t.number("speed_mps", COMMANDED_SPEED_MPS)
+        if _all_set(*geometry.values()):
+            _lawnmower_geometry(t, LawnmowerMission(**geometry, depth_m=0.0, speed_mps=1.0), accept)
+        mission = _build(
+            LawnmowerMission, **geometry, depth_m=depth, speed_mps=speed, acceptance_radius_m=accept
+        )
+    else:
+        center = t.vec2("center_m")
+        depth = t.number("depth_m", NON_NEGATIVE)
+        radius = t.number("radius_m", POSITIVE)
+        t.report.depth(t.at("depth_m"), depth)
+        if center is not None and radius is not None:
+            (e, n), r = center, radius
+            for p in ((e - r, n), (e + r, n), (e, n - r), (e, n + r)):
+                t.report.point(t.at("radius_m"), "the loiter circle", p)
+        mission = _build(
+            StationKeepingMission,
+            center_m=center,
+            depth_m=depth,
+            radius_m=radius,
+            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+            acceptance_radius_m=accept,
+        )
+    elsewhere = {k for keys in _MISSION_KEYS.values() for k in keys}
+    t.finish(elsewhere=elsewhere, context=f"by mission.kind = {_show(kind)}")
+    return mission
+
+
+def _overrides(t: _Table | None) -> tuple[tuple[str, OverrideValue], ...] | None:
+    if t is None:
+        return None
+    expected = "a number or an array of numbers"
+    out: list[tuple[str, OverrideValue]] = []
+    ok = True
+    for key, raw in t.data.items():
+        t.known.append(key)
+        path = t.at(key)
+        if not key.isidentifier():
+            t.report.add(path, "is not a spec field name (a Python identifier)")
+            ok = False
+            continue
+        if isinstance(raw, list):
+            if not raw:
+                t.report.add(path, f"is an empty array; expected {expected}")
+                ok = False
+                continue
+            items = [_override_number(t.report, f"{path}[{i}]", v) for i, v in enumerate(raw)]
+            if _all_set(*items):
+                out.append((key, tuple(items)))
+            else:
+                ok = False
+        else:
+            value = _override_number(t.report, path, raw, expected=expected)
+            if value is None:
+                ok = False
+            else:
+                out.append((key, value))
+    return tuple(sorted(out)) if ok else None
+
+
+def _override_number(
+    errs: _Report, path: str, value: Any, expected: str = "a number"
+) -> int | float | None:
+    # Ints stay ints: a spec field may be an integer (bits, a sample count).
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        errs.add(
+            path,
+            MSG_WRONG_TYPE.format(
+                value=_show(value), type_name=_type_name(value), expected=expected
+            ),
+        )
+        return None
+    if isinstance(value, float) and not math.isfinite(value):
+        errs.add(path, MSG_NOT_FINITE.format(value=_show(value), expected=expected))
+        return None
+    return value
+
+
+def _sensors(t: _Table | None) -> Sensors | None:
+    if t is None:
+        return None
+    sensors = _build(
+        Sensors,
+        imu=t.string("imu", non_empty=True, default="lig2024"),
+        depth=t.string("depth", non_empty=True, default="ms5837_30ba"),
+        imu_overrides=_overrides(t.table("imu_overrides")),
+        depth_overrides=_overrides(t.table("depth_overrides")),
+    )
+    t.finish()
+    return sensors
+
+
+def _autopilot(t: _Table | None) -> Autopilot | None:
+    if t is None:
+        return None
+    autopilot = _build(
+        Autopilot,
+        rate_hz=t.number("rate_hz", RATE_HZ, default=10.0),
+        attitude_source=t.string("attitude_source", choices=ATTITUDE_SOURCES, default="truth"),
+    )
+    t.finish()
+    return autopilot
+
+
+def _recording(t: _Table | None) -> Recording | None:
+    if t is None:
+        return None
+    recording = _build(
+        Recording,
+        truth_rate_hz=t.number("truth_rate_hz", RATE_HZ, default=10.0),
+        camera=t.boolean("camera", default=True),
+        camera_rate_hz=t.number("camera_rate_hz", CAMERA_RATE_HZ, default=1.0),
+        camera_width=t.integer("camera_width", CAMERA_WIDTH, default=320),
+        camera_height=t.integer("camera_height", CAMERA_HEIGHT, default=240),
+    )
+    t.finish()
+    return recording
+
+
+# ---- cross-field rules -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _Depth:
+    path: str
+    depth_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class _Point:
+    path: str
+    what: str
+    en_m: Vec2
+
+
+def _lawnmower_geometry(t: _Table, pattern: LawnmowerMission, accept: float | None) -> None:
+    # The pattern is a rectangle: its four corners bound every waypoint.
+    wps = pattern.waypoints_m()
+    for p in sorted(set(wps[:2] + wps[-2:])):
+        t.report.point(t.path, "the lawnmower pattern's corner", p)
+    # The autopilot takes the next waypoint once within the acceptance radius; a radius as large
+    # as a lane or a crossover would skip waypoints and fly a different pattern.
+    shortest = pattern.lane_length_m
+    if pattern.lanes > 1:
+        shortest = min(shortest, pattern.lane_spacing_m)
+    if accept is not None and accept >= shortest:
+        t.report.add(
+            t.at("acceptance_radius_m"),
+            MSG_ACCEPT_TOO_BIG.format(value=_show(accept), shortest=shortest),
+        )
+
+
+def _cross_checks(report: _Report, scene: str | None) -> None:
+    """Rules between fields: the tank's walls and floor, the seabed."""
+    if scene == "tank":
+        if report.seabed_m is not None:
+            report.add("water.seabed_depth_m", MSG_TANK_SEABED.format(floor=TANK_FLOOR_DEPTH_M))
+        for d in report.depths:
+            if d.depth_m not in TANK_DEPTH_M:
+                report.add(
+                    d.path,
+                    MSG_TANK_DEPTH.format(
+                        value=d.depth_m, floor=TANK_FLOOR_DEPTH_M, allowed=TANK_DEPTH_M
+                    ),
+                )
+        reported: set[str] = set()
+        for p in report.points:
+            if p.path in reported:
+                continue  # one message per field (a circle has four extreme points)
+            if p.en_m[0] not in TANK_EAST_M or p.en_m[1] not in TANK_NORTH_M:
+                report.add(
+                    p.path,
+                    MSG_TANK_OUTSIDE.format(
+                        what=f"{p.what} (E {p.en_m[0]:g}, N {p.en_m[1]:g})",
+                        length=TANK_LENGTH_M,
+                        width=TANK_WIDTH_M,
+                        east=TANK_EAST_M,
+                        north=TANK_NORTH_M,
+                    ),
+                )
+                reported.add(p.path)
+    elif report.seabed_m is not None:
+        for d in report.depths:
+            if d.depth_m >= report.seabed_m:
+                report.add(d.path, MSG_BELOW_SEABED.format(value=d.depth_m, seabed=report.seabed_m))
+
+
+# ---- entry points ------------------------------------------------------------------------------
+
+
+def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scenario:
+    """Validate a mapping (a parsed TOML document, or :meth:`Scenario.to_dict` output).
+
+    Args:
+        data: The scenario's top-level table.
+        source: Name shown in error messages (the file path, usually).
+
+    Returns:
+        The scenario, every optional field filled with its default.
+
+    Raises:
+        ScenarioError: Listing every problem found.
+    """
+    report = _Report()
+    if not isinstance(data, Mapping):
+        raise ScenarioError([f"the scenario is {_type_name(data)}; expected a table"], source)
+    top = _Table(report, "", data)
+    name = top.string("name", expected="a string of lowercase letters, digits and '_'")
+    if name is not None and not _NAME.fullmatch(name):
+        report.add("name", MSG_BAD_NAME.format(value=_show(name)))
+        name = None
+    description = top.string("description", default="")
+    seed = top.integer("seed", NON_NEGATIVE, default=0)
+    duration = top.number("duration_s", DURATION_S)
+    start = _start_utc(top)
+    scene = top.string("scene", choices=SCENES, default="open_sea")
+    place = _place(
+        top.table(
+            "place", required=True, expected="a [place] table with latitude_deg, longitude_deg"
+        )
+    )
+    water = _water(top.table("water"))
+    current = _current(top.table("current"))
+    initial = _initial(top.table("initial"))
+    mission = _mission(
+        top.table(
+            "mission",
+            required=True,
+            expected="a [mission] table with kind = " + " | ".join(_show(k) for k in MISSION_KINDS),
+        )
+    )
+    sensors = _sensors(top.table("sensors"))
+    autopilot = _autopilot(top.table("autopilot"))
+    recording = _recording(top.table("recording"))
+    top.finish()
+    _cross_checks(report, scene)
+    if report.lines:
+        raise ScenarioError(report.lines, source)
+    scenario = _build(
+        Scenario,
+        name=name,
+        duration_s=duration,
+        start_utc=start,
+        place=place,
+        mission=mission,
+        description=description,
+        seed=seed,
+        scene=scene,
+        water=water,
+        current=current,
+        initial=initial,
+        sensors=sensors,
+        autopilot=autopilot,
+        recording=recording,
+    )
+    # Every None above was reported; reaching here without a scenario is a bug in this module.
+    assert scenario is not None, "unreported validation failure"
+    return scenario
+
+
+def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+    """Read and validate a scenario file.
+
+    Raises:
+        ScenarioError: The file cannot be read, is not TOML (the message gives line and column),
+            or is not a valid scenario (every problem listed).
+    """
+    p = Path(path)
+    source = str(p)
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ScenarioError([f"cannot read the file: {exc.strerror or exc}"], source) from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError([f"not UTF-8 text (bad byte at offset {exc.start})"], source) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = _TOML_POSITION.search(msg)
+        where = f"line {m.group(1)}, column {m.group(2)}: " if m else ""
+        detail = _TOML_POSITION.sub("", msg)
+        raise ScenarioError([f"{where}TOML syntax error: {detail}"], source) from None
+    return parse_scenario(data, source)

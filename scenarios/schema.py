@@ -1,0 +1,412 @@
+"""The sea-trial schema: frozen dataclasses that a validated scenario file becomes.
+
+Every value keeps the name and unit it has in the TOML file (degrees, metres, seconds, compass
+headings clockwise from North, positions as ``(East, North)``), so a reader can go from a file to a
+field without a conversion table. Converting to radians and ENU yaw is the consumer's job (see
+:mod:`twin.frames`), done once where the value is used.
+
+The dataclasses do no validation of their own: :mod:`scenarios.loader` checks a file completely,
+collecting every problem, before it builds them. Build scenarios in code through
+:func:`scenarios.loader.parse_scenario` (a mapping in, a checked :class:`Scenario` out) rather than
+by calling the constructors, which would accept anything.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from dataclasses import dataclass, field
+from datetime import UTC, datetime, timedelta
+from typing import Any, ClassVar, Literal, TypeAlias
+
+# ---- allowed values (the loader validates against these; consumers may use them too) ----------
+
+SceneName: TypeAlias = Literal["open_sea", "tank"]
+SCENES: tuple[str, ...] = ("open_sea", "tank")
+
+JerlovType: TypeAlias = Literal["I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"]
+# Jerlov (1976): open-ocean types I..III, coastal types 1C..9C (increasingly turbid).
+JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
+
+CurrentKind: TypeAlias = Literal["none", "constant", "profile", "gauss_markov"]
+CURRENT_KINDS: tuple[str, ...] = ("none", "constant", "profile", "gauss_markov")
+
+MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping"]
+MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping")
+
+AttitudeSource: TypeAlias = Literal["truth", "estimate"]
+ATTITUDE_SOURCES: tuple[str, ...] = ("truth", "estimate")
+
+# The tank scene (models/auv/scene_tank.xml): 12 m (East) x 6 m (North) x 4 m deep, centred on the
+# world origin, water surface at z = 0.
+TANK_LENGTH_M = 12.0
+TANK_WIDTH_M = 6.0
+TANK_FLOOR_DEPTH_M = 4.0
+# Deepest depth a scenario may command in the tank: the floor is at 4 m and the hull (about 0.19 m
+# in diameter) pitches while it holds depth, so keep half a metre of water under the keel.
+TANK_MAX_DEPTH_M = 3.5
+
+Vec2: TypeAlias = tuple[float, float]
+OverrideValue: TypeAlias = int | float | tuple[int | float, ...]
+
+
+def _enu_from_compass(speed_mps: float, toward_deg: float) -> Vec2:
+    """(East, North) components of a speed moving toward a compass direction."""
+    a = math.radians(toward_deg)
+    return (speed_mps * math.sin(a), speed_mps * math.cos(a))
+
+
+# ---- sections ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Place:
+    """Where on Earth the trial is: fixes the sun's position with the start time."""
+
+    latitude_deg: float
+    longitude_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class Water:
+    """The water body.
+
+    ``seabed_depth_m`` is None for bottomless open sea, and always in the tank, whose floor is part
+    of the scene at :data:`TANK_FLOOR_DEPTH_M`.
+    """
+
+    density_kg_m3: float = 1025.0
+    temperature_c: float = 15.0
+    salinity_psu: float = 35.0
+    jerlov_type: JerlovType = "II"
+    seabed_depth_m: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ProfilePoint:
+    """One point of a depth profile of the current."""
+
+    depth_m: float
+    speed_mps: float
+    toward_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class Current:
+    """The water current. Fields that the ``kind`` does not use keep their defaults.
+
+    * ``none``: still water.
+    * ``constant``: ``speed_mps`` toward ``toward_deg`` at every depth.
+    * ``profile``: ``profile`` points, interpolated linearly in depth
+      (see :meth:`mean_velocity_en`).
+    * ``gauss_markov``: mean ``speed_mps`` toward ``toward_deg`` plus a first-order Gauss-Markov
+      gust on each horizontal axis with standard deviation ``sigma_mps`` and correlation time
+      ``tau_s``.
+
+    ``toward_deg`` is the compass direction the water flows *toward* (oceanographic convention;
+    the opposite of the meteorological "from").
+    """
+
+    kind: CurrentKind = "none"
+    speed_mps: float = 0.0
+    toward_deg: float = 0.0
+    profile: tuple[ProfilePoint, ...] = ()
+    sigma_mps: float = 0.0
+    tau_s: float = 60.0
+
+    def mean_velocity_en(self, depth_m: float) -> Vec2:
+        """The mean (deterministic) current at a depth as (East, North) in m/s.
+
+        A profile is interpolated linearly in depth on the velocity's East and North components
+        (not on speed and direction, which would make a profile turning through North jump by
+        360 degrees), and held constant above its first and below its last point.
+        The Gauss-Markov gust is not included: its state belongs to the world's random stream.
+        """
+        if self.kind == "none":
+            return (0.0, 0.0)
+        if self.kind != "profile":
+            return _enu_from_compass(self.speed_mps, self.toward_deg)
+        pts = self.profile
+        if depth_m <= pts[0].depth_m:
+            return _enu_from_compass(pts[0].speed_mps, pts[0].toward_deg)
+        for lo, hi in itertools.pairwise(pts):
+            if depth_m <= hi.depth_m:
+                w = (depth_m - lo.depth_m) / (hi.depth_m - lo.depth_m)
+                e0, n0 = _enu_from_compass(lo.speed_mps, lo.toward_deg)
+                e1, n1 = _enu_from_compass(hi.speed_mps, hi.toward_deg)
+                return (e0 + w * (e1 - e0), n0 + w * (n1 - n0))
+        return _enu_from_compass(pts[-1].speed_mps, pts[-1].toward_deg)
+
+
+@dataclass(frozen=True, slots=True)
+class Initial:
+    """The vehicle's state at t = 0.
+
+    Angles are degrees; heading is compass, clockwise from North; roll and pitch follow
+    :mod:`twin.frames` (pitch nose up positive, roll starboard down positive).
+    """
+
+    position_m: Vec2 = (0.0, 0.0)
+    depth_m: float = 0.0
+    heading_deg: float = 0.0
+    roll_deg: float = 0.0
+    pitch_deg: float = 0.0
+    speed_mps: float = 0.0
+
+
+# ---- missions ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class WaypointLeg:
+    """Go to ``to_m`` = (East, North) at ``depth_m`` and ``speed_mps``.
+
+    The leg ends when the vehicle is horizontally within the mission's ``acceptance_radius_m`` of
+    the point.
+    """
+
+    to_m: Vec2
+    depth_m: float
+    speed_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class HeadingLeg:
+    """Hold compass ``heading_deg`` at ``depth_m`` and ``speed_mps`` for ``duration_s``."""
+
+    heading_deg: float
+    duration_s: float
+    depth_m: float
+    speed_mps: float
+
+
+Leg: TypeAlias = WaypointLeg | HeadingLeg
+
+
+@dataclass(frozen=True, slots=True)
+class LegsMission:
+    """A sequence of waypoint and heading legs, flown in order."""
+
+    kind: ClassVar[Literal["legs"]] = "legs"
+    legs: tuple[Leg, ...]
+    acceptance_radius_m: float = 5.0
+
+    def expand(self) -> tuple[Leg, ...]:
+        """The legs to fly (already explicit for this kind)."""
+        return self.legs
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return tuple(leg.depth_m for leg in self.legs)
+
+
+@dataclass(frozen=True, slots=True)
+class LawnmowerMission:
+    """A boustrophedon survey of ``lanes`` parallel lanes.
+
+    Geometry: the first lane starts at ``origin_m`` and runs ``lane_length_m`` along compass
+    ``heading_deg``. Each next lane lies ``lane_spacing_m`` to the *right* of the previous one (as
+    seen looking along the first lane's direction, i.e. toward ``heading_deg + 90``) and runs the
+    opposite way, so the vehicle turns right, then left, then right... and the pattern covers the
+    rectangle to the right of the first lane.
+    """
+
+    kind: ClassVar[Literal["lawnmower"]] = "lawnmower"
+    origin_m: Vec2
+    heading_deg: float
+    lane_length_m: float
+    lane_spacing_m: float
+    lanes: int
+    depth_m: float
+    speed_mps: float
+    acceptance_radius_m: float = 5.0
+
+    def waypoints_m(self) -> tuple[Vec2, ...]:
+        """Lane endpoints in flying order: start and end of lane 0, of lane 1, ... (2 per lane)."""
+        h = math.radians(self.heading_deg)
+        along = (math.sin(h), math.cos(h))  # (E, N) unit vector of the first lane
+        right = (math.cos(h), -math.sin(h))  # its right-hand normal: heading + 90 deg
+        e0, n0 = self.origin_m
+        out: list[Vec2] = []
+        for i in range(self.lanes):
+            off = i * self.lane_spacing_m
+            a = (e0 + off * right[0], n0 + off * right[1])
+            b = (a[0] + self.lane_length_m * along[0], a[1] + self.lane_length_m * along[1])
+            out.extend([a, b] if i % 2 == 0 else [b, a])
+        return tuple(out)
+
+    def expand(self) -> tuple[WaypointLeg, ...]:
+        """The survey as waypoint legs: 2 per lane (to the lane's start, then to its end).
+
+        The first leg goes to ``origin_m`` from wherever the vehicle starts; between lanes the leg
+        to the next lane's start is the ``lane_spacing_m`` crossover.
+        """
+        return tuple(
+            WaypointLeg(to_m=p, depth_m=self.depth_m, speed_mps=self.speed_mps)
+            for p in self.waypoints_m()
+        )
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return (self.depth_m,)
+
+
+@dataclass(frozen=True, slots=True)
+class StationKeepingMission:
+    """Loiter on a circle of ``radius_m`` around ``center_m`` at ``depth_m`` and ``speed_mps``.
+
+    A torpedo AUV needs way on to steer, so it cannot hover; it circles instead. The direction of
+    the circle is the autopilot's choice.
+    """
+
+    kind: ClassVar[Literal["station_keeping"]] = "station_keeping"
+    center_m: Vec2
+    depth_m: float
+    radius_m: float
+    speed_mps: float
+    acceptance_radius_m: float = 5.0
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return (self.depth_m,)
+
+
+Mission: TypeAlias = LegsMission | LawnmowerMission | StationKeepingMission
+
+
+# ---- vehicle computer and recording -----------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Sensors:
+    """Sensor presets and spec-field overrides.
+
+    Overrides are ``(field, value)`` pairs sorted by field, so the dataclass stays hashable; pass
+    them on as ``registry.create("imu", s.imu, **dict(s.imu_overrides))``. The preset and field
+    names are checked by the consumer against ``sensors.registry``.
+    """
+
+    imu: str = "lig2024"
+    depth: str = "ms5837_30ba"
+    imu_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+    depth_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Autopilot:
+    """The autopilot's loop rate and where it reads attitude from.
+
+    ``"estimate"`` needs the navigation filter; until it exists the consumer may refuse it.
+    """
+
+    rate_hz: float = 10.0
+    attitude_source: AttitudeSource = "truth"
+
+
+@dataclass(frozen=True, slots=True)
+class Recording:
+    """What the run records. The chase camera is rendered only where a GL context exists."""
+
+    truth_rate_hz: float = 10.0
+    camera: bool = True
+    camera_rate_hz: float = 1.0
+    camera_width: int = 320
+    camera_height: int = 240
+
+
+# ---- the scenario ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """One sea trial, validated. ``start_utc`` is timezone-aware, in UTC."""
+
+    name: str
+    duration_s: float
+    start_utc: datetime
+    place: Place
+    mission: Mission
+    description: str = ""
+    seed: int = 0
+    scene: SceneName = "open_sea"
+    water: Water = field(default_factory=Water)
+    current: Current = field(default_factory=Current)
+    initial: Initial = field(default_factory=Initial)
+    sensors: Sensors = field(default_factory=Sensors)
+    autopilot: Autopilot = field(default_factory=Autopilot)
+    recording: Recording = field(default_factory=Recording)
+
+    def utc_at(self, t_s: float) -> datetime:
+        """The UTC instant of simulation time ``t_s`` (seconds since the start)."""
+        return self.start_utc + timedelta(seconds=t_s)
+
+    @property
+    def end_utc(self) -> datetime:
+        """The UTC instant the run ends."""
+        return self.utc_at(self.duration_s)
+
+    def replace_seed(self, seed: int) -> Scenario:
+        """A copy with another root seed (Monte Carlo runs of one trial).
+
+        Raises:
+            ValueError: ``seed`` is not an int >= 0.
+        """
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+        return dataclasses.replace(self, seed=seed)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scenario as a JSON-able dict in the file's own layout.
+
+        ``parse_scenario(s.to_dict()) == s``: the dict is a valid scenario, with every default
+        written out, so a metrics file records exactly what ran.
+        """
+        out: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "seed": self.seed,
+            "duration_s": self.duration_s,
+            "start_utc": self.start_utc.astimezone(UTC).isoformat().replace("+00:00", "Z"),
+            "scene": self.scene,
+            "place": _plain(self.place),
+            "water": _plain(self.water),
+            "current": _current_dict(self.current),
+            "initial": _plain(self.initial),
+            "mission": _mission_dict(self.mission),
+            "sensors": {
+                "imu": self.sensors.imu,
+                "depth": self.sensors.depth,
+                "imu_overrides": {k: _plain(v) for k, v in self.sensors.imu_overrides},
+                "depth_overrides": {k: _plain(v) for k, v in self.sensors.depth_overrides},
+            },
+            "autopilot": _plain(self.autopilot),
+            "recording": _plain(self.recording),
+        }
+        if self.water.seabed_depth_m is None:
+            del out["water"]["seabed_depth_m"]
+        return out
+
+
+def _plain(value: Any) -> Any:
+    """Dataclasses to dicts and tuples to lists, recursively (JSON's shapes)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _current_dict(c: Current) -> dict[str, Any]:
+    # Only the keys the kind uses: the loader rejects the others, and the dict must load back.
+    keys = {
+        "none": (),
+        "constant": ("speed_mps", "toward_deg"),
+        "profile": ("profile",),
+        "gauss_markov": ("speed_mps", "toward_deg", "sigma_mps", "tau_s"),
+    }[c.kind]
+    return {"kind": c.kind, **{k: _plain(getattr(c, k)) for k in keys}}
+
+
+def _mission_dict(m: Mission) -> dict[str, Any]:
+    return {"kind": m.kind, **_plain(m)}

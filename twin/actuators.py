@@ -1,0 +1,68 @@
+"""Actuator commands and the command-side limits (travel and slew rate).
+
+The actuator *state* (true fin angle, true propeller speed) lives in MuJoCo as actuator activation
+(``filterexact`` first-order dynamics, ``actrange`` travel; see models/auv/auv.xml). Here the
+command is clipped to the travel and slewed at the servo's rate limit before MuJoCo sees it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.vehicle import VehicleParams
+
+ACTUATOR_NAMES = ("rudder", "stern_planes", "propeller")
+
+
+@dataclass(frozen=True, slots=True)
+class ActuatorCommand:
+    """Raw actuator commands.
+
+    Attributes:
+        rudder_rad: Rudder angle; positive turns the vehicle to starboard (heading increases).
+        stern_rad: Stern-plane angle; positive pitches the nose up.
+        propeller_rps: Propeller speed in revolutions per second (>= 0).
+    """
+
+    rudder_rad: float = 0.0
+    stern_rad: float = 0.0
+    propeller_rps: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.rudder_rad, self.stern_rad, self.propeller_rps])
+
+
+class CommandLimiter:
+    """Clip commands to the actuators' travel and slew them at the rate limits."""
+
+    def __init__(self, params: VehicleParams):
+        self._max = (params.fin_max_rad, params.fin_max_rad, params.prop_max_rpm / 60.0)
+        self._min = (-params.fin_max_rad, -params.fin_max_rad, 0.0)
+        # The propeller has no separate slew limit: its motor lag (T_n) is in MuJoCo.
+        self._rate = (params.fin_rate_max_rad_s, params.fin_rate_max_rad_s, math.inf)
+        self._last: tuple[float, float, float] | None = None
+
+    def reset(self, initial: tuple[float, float, float]) -> None:
+        self._last = tuple(  # type: ignore[assignment]
+            min(hi, max(lo, float(x)))
+            for x, lo, hi in zip(initial, self._min, self._max, strict=True)
+        )
+
+    def __call__(self, command: ActuatorCommand, dt: float) -> tuple[float, float, float]:
+        """The limited command (rudder, stern, propeller) for one step of length dt."""
+        raw = (command.rudder_rad, command.stern_rad, command.propeller_rps)
+        if not all(math.isfinite(x) for x in raw):
+            raise ValueError(f"actuator command has a non-finite value: {command}")
+        target = [min(hi, max(lo, x)) for x, lo, hi in zip(raw, self._min, self._max, strict=True)]
+        if self._last is None:
+            self._last = tuple(target)
+            return self._last
+        out = []
+        for x, last, rate in zip(target, self._last, self._rate, strict=True):
+            step = rate * dt
+            out.append(last + min(step, max(-step, x - last)))
+        self._last = (out[0], out[1], out[2])
+        return self._last

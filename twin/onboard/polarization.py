@@ -1,0 +1,287 @@
+"""Stokes images from a raw division-of-focal-plane (DoFP) mosaic: the one shared derivation.
+
+Onboard code (the compass methods) and the renderer's derived debug layers both call
+:func:`stokes_from_mosaic`, so what the vehicle computes and what the twin shows are the same
+numbers. This module is on the onboard side: it imports only numpy, OpenCV and the standard library.
+
+Conventions:
+
+* Layout: ``layout_deg[r][c]`` is the analyser angle of raw pixel (r, c) of every 2×2 super-pixel,
+  in degrees. Default :data:`IMX250MZR_LAYOUT_DEG`: (0,0)=90°, (0,1)=45°, (1,0)=135°, (1,1)=0°
+  (Sony IMX250MZR/IMX264MZR; ``elerac/polanalyser:polanalyser/demosaicing.py``). A camera that
+  reads out with a one-pixel ROI offset or a flipped image has another phase or sense: declare it.
+* Angles (analyser angles and the AoP) are measured from the image x-axis (increasing column)
+  towards decreasing row, i.e. counter-clockwise in the image as displayed (row 0 at the top).
+  That is the right-handed sense about the direction the light travels, the convention of the
+  world-side ``sensors.polarimeter.stokes`` with the camera's image x-axis as reference.
+* Units: S0, S1, S2 in DN above the black level. Each pixel sees
+  ``I_k = ½ (S0 + S1 cos 2α_k + S2 sin 2α_k)``, so an unpolarised field of ``v`` DN per pixel has
+  S0 = 2v. For the standard four angles the least-squares inverse is ``S0 = ½ ΣI_k``,
+  ``S1 = I0 − I90``, ``S2 = I45 − I135`` (optics.md §3.2).
+
+Methods:
+* ``"superpixel"``: one Stokes vector per 2×2 block (half resolution). No interpolation error,
+  at the price of a half-pixel misregistration between the four analysers (an AoP error at steep
+  intensity gradients, e.g. the edge of Snell's window).
+* ``"interpolate"``: full resolution. Each analyser channel is bilinearly interpolated from its
+  own 2×2-periodic lattice (the interpolation polanalyser's ``COLOR_PolarMono`` does through
+  OpenCV's Bayer conversion), and the channels are combined. Because both steps are linear the
+  code filters the sign-weighted raw mosaic once per Stokes component instead of demosaicing four
+  channels: three 3×3 filters. Borders use reflect-101 padding, which keeps the 2×2 phase.
+
+AoP is in [−π/2, π/2). DoP is ``√(S1² + S2²) / S0`` clipped to [0, 1]; it is 0 where S0 ≤ 0
+(black-level-subtracted dark pixels) and never NaN. Noise biases the DoP of dim, weakly polarised
+pixels upwards (the estimator is a norm); clipping at 1 hides nothing else.
+
+Saturated pixels: a clipped analyser channel makes S1/S2/S0 wrong, so AoP and DoP there are
+biased (a fully saturated super-pixel reads DoP = 0). Pass ``saturation_dn`` (e.g. 4095 for a
+12-bit camera) to get a ``saturated`` mask of every output pixel that used a clipped raw value.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+#: Sony IMX250MZR / IMX264MZR super-pixel: analyser angle (deg) of raw pixel (row, col).
+IMX250MZR_LAYOUT_DEG: tuple[tuple[float, float], tuple[float, float]] = ((90.0, 45.0), (135.0, 0.0))
+
+Layout = tuple[tuple[float, float], tuple[float, float]]
+Method = Literal["superpixel", "interpolate"]
+
+_ACCEPTED_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+_PI_F32 = np.float32(math.pi)
+_TINY = 1e-30  # a positive floor for S0 in the DoP division
+# Bilinear interpolation of a 2×2-periodic lattice: the value itself at its own sites, the mean of
+# 2 at edge neighbours, of 4 at diagonal ones.
+_BILINEAR = np.array([[1.0, 2.0, 1.0], [2.0, 4.0, 2.0], [1.0, 2.0, 1.0]], np.float32) / 4.0
+
+
+@dataclass(frozen=True, slots=True)
+class PolarizationImage:
+    """Linear Stokes images of one frame, float32, all the same shape.
+
+    Attributes:
+        s0: Total intensity, DN above black level (``½ ΣI_k``).
+        s1: ``I0 − I90`` equivalent, DN (reference: image x-axis).
+        s2: ``I45 − I135`` equivalent, DN.
+        aop: Angle of polarization (rad) from the image x-axis towards decreasing row,
+            in [−π/2, π/2).
+        dop: Degree of linear polarization in [0, 1]; 0 where S0 ≤ 0.
+        saturated: Bool mask of output pixels computed from a raw value ≥ ``saturation_dn``
+            (all False when no saturation level was given).
+    """
+
+    s0: NDArray[np.float32]
+    s1: NDArray[np.float32]
+    s2: NDArray[np.float32]
+    aop: NDArray[np.float32]
+    dop: NDArray[np.float32]
+    saturated: NDArray[np.bool_]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns) of every layer."""
+        return self.s0.shape  # type: ignore[return-value]
+
+
+def analysis_pinv(layout_deg: Layout = IMX250MZR_LAYOUT_DEG) -> NDArray[np.float64]:
+    """The (3, 2, 2) least-squares weights W so that ``S_j = Σ_rc W[j, r, c] · I[r, c]``.
+
+    Rows of the measurement matrix are ``½ [1, cos 2α, sin 2α]`` for the layout's four analysers;
+    W is its Moore–Penrose inverse. For any arrangement of 0/45/90/135° it is exactly
+    ``S0 = ½ΣI``, ``S1 = I0 − I90``, ``S2 = I45 − I135``.
+
+    Raises:
+        ValueError: If the layout is not 2×2 of finite angles or cannot determine S1 and S2.
+    """
+    a = np.asarray(layout_deg, dtype=np.float64)
+    if a.shape != (2, 2) or not np.all(np.isfinite(a)):
+        raise ValueError(f"layout_deg = {layout_deg!r}: must be 2×2 finite analyser angles (deg)")
+    two_alpha = 2.0 * np.deg2rad(a.ravel())
+    m = 0.5 * np.stack([np.ones(4), np.cos(two_alpha), np.sin(two_alpha)], axis=1)
+    if np.linalg.matrix_rank(m, tol=1e-9) < 3:
+        raise ValueError(
+            f"layout_deg = {layout_deg!r}: needs at least three distinct analyser angles (mod 180°)"
+        )
+    w = np.linalg.pinv(m)  # (3, 4)
+    w[np.abs(w) < 1e-12] = 0.0  # exact zeros let the fast paths skip terms
+    return w.reshape(3, 2, 2)
+
+
+def _check_raw(raw: np.ndarray) -> None:
+    if not isinstance(raw, np.ndarray):
+        raise TypeError(f"raw must be a numpy array, got {type(raw).__name__}")
+    if raw.dtype not in _ACCEPTED_DTYPES:
+        raise TypeError(
+            f"raw.dtype = {raw.dtype}: must be one of uint8, uint16, float32, float64 "
+            "(a raw DoFP mosaic)"
+        )
+    if raw.ndim != 2:
+        raise ValueError(f"raw.shape = {raw.shape}: must be 2-D (rows, columns), one mosaic")
+    h, w = raw.shape
+    if h < 2 or w < 2 or h % 2 or w % 2:
+        raise ValueError(
+            f"raw.shape = {raw.shape}: rows and columns must be even and >= 2 "
+            "(whole 2×2 super-pixels)"
+        )
+    if raw.dtype.kind == "f" and not np.isfinite(raw).all():
+        raise ValueError("raw holds NaN or infinite values: a mosaic must be finite")
+
+
+def _as_cv(raw: np.ndarray) -> np.ndarray:
+    # OpenCV's arithmetic has no float64→float32 mixed path that is faster than one conversion.
+    if raw.dtype == np.float64:
+        raw = raw.astype(np.float32)
+    return np.ascontiguousarray(raw)
+
+
+def _sub_lattices(raw: np.ndarray) -> list[list[np.ndarray]]:
+    """The four (H/2, W/2) analyser planes [r][c], as OpenCV-friendly views.
+
+    Splitting columns as a 2-channel image is one SIMD pass; the row phase is then a row-strided
+    view, which OpenCV reads without copying (a column-strided numpy view would be copied).
+    """
+    h, w = raw.shape
+    even_c, odd_c = cv2.split(raw.reshape(h, w // 2, 2))
+    return [[even_c[0::2], odd_c[0::2]], [even_c[1::2], odd_c[1::2]]]
+
+
+def _weighted_sum(planes: list[tuple[np.ndarray, float]], offset: float) -> NDArray[np.float32]:
+    """``Σ w·plane + offset`` in float32 with OpenCV's fused, converting ``addWeighted``."""
+    if len(planes) == 1:
+        ((a, wa),) = planes
+        return cv2.addWeighted(a, wa, a, 0.0, offset, dtype=cv2.CV_32F)
+    partial = []
+    for i in range(0, len(planes), 2):
+        pair = planes[i : i + 2]
+        if len(pair) == 1:
+            partial.append(pair[0])
+            continue
+        (a, wa), (b, wb) = pair
+        partial.append((cv2.addWeighted(a, wa, b, wb, 0.0, dtype=cv2.CV_32F), 1.0))
+    return _weighted_sum(partial, offset)
+
+
+def _superpixel(
+    raw: np.ndarray, w: NDArray[np.float64], black_level_dn: float
+) -> list[NDArray[np.float32]]:
+    planes = _sub_lattices(raw)
+    out = []
+    for j in range(3):
+        terms = [
+            (planes[r][c], float(w[j, r, c])) for r in (0, 1) for c in (0, 1) if w[j, r, c] != 0.0
+        ]
+        out.append(_weighted_sum(terms, -black_level_dn * float(w[j].sum())))
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _weight_map(shape: tuple[int, int], wj: tuple[float, float, float, float]) -> np.ndarray:
+    """Full-size float32 map of a 2×2-periodic weight pattern (cached: one per shape/layout)."""
+    h, w = shape
+    return np.tile(np.asarray(wj, np.float32).reshape(2, 2), (h // 2, w // 2))
+
+
+def _interpolate(
+    raw: np.ndarray, w: NDArray[np.float64], black_level_dn: float
+) -> list[NDArray[np.float32]]:
+    rawf = raw if raw.dtype == np.float32 else raw.astype(np.float32)
+    out = []
+    for j in range(3):
+        wj = w[j]
+        if np.all(wj == wj[0, 0]):
+            # Constant weight (S0 of the standard layouts): fold it into the kernel.
+            src, kernel = rawf, _BILINEAR * np.float32(wj[0, 0])
+        else:
+            key = tuple(float(v) for v in wj.ravel())
+            src, kernel = cv2.multiply(rawf, _weight_map(rawf.shape, key)), _BILINEAR
+        s = cv2.filter2D(src, cv2.CV_32F, kernel, borderType=cv2.BORDER_REFLECT_101)
+        offset = black_level_dn * float(wj.sum())
+        if offset != 0.0:
+            s -= np.float32(offset)
+        out.append(s)
+    return out
+
+
+def _aop_dop(
+    s0: NDArray[np.float32], s1: NDArray[np.float32], s2: NDArray[np.float32]
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    two_aop = np.arctan2(s2, s1)  # numpy's float32 arctan2 is SIMD and exact to ~1 ulp
+    # atan2 is in [−π, π]; +π (S2 = +0, S1 < 0) is the same axis as −π. Keep [−π, π).
+    wrap = two_aop >= _PI_F32
+    if wrap.any():
+        two_aop[wrap] -= np.float32(2.0 * math.pi)
+    aop = two_aop
+    aop *= np.float32(0.5)
+    # DoP = min(|S_lin|, S0⁺) / max(S0, tiny): clipped to [0, 1] and 0 where S0 <= 0 in four SIMD
+    # passes, no NaN (np.hypot and a masked np.divide are ~10× slower on float32, measured).
+    lin = cv2.magnitude(s1, s2)
+    num = np.minimum(lin, np.maximum(s0, np.float32(0.0)), out=lin)
+    dop = np.divide(num, np.maximum(s0, np.float32(_TINY)), out=num)
+    return aop, dop
+
+
+def _saturation_mask(raw: np.ndarray, saturation_dn: float | None, method: Method) -> np.ndarray:
+    h, w = raw.shape
+    if saturation_dn is None:
+        shape = (h // 2, w // 2) if method == "superpixel" else (h, w)
+        return np.zeros(shape, dtype=bool)
+    if method == "superpixel":
+        p = _sub_lattices(raw)
+        brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
+        return brightest >= saturation_dn
+    # A full-resolution output pixel uses raw values from its 3×3 neighbourhood.
+    hit = (raw >= saturation_dn).view(np.uint8)
+    return cv2.dilate(hit, np.ones((3, 3), np.uint8)).view(bool)
+
+
+def stokes_from_mosaic(
+    raw: np.ndarray,
+    layout_deg: Layout = IMX250MZR_LAYOUT_DEG,
+    method: Method = "superpixel",
+    black_level_dn: float = 0.0,
+    saturation_dn: float | None = None,
+) -> PolarizationImage:
+    """Turn a raw DoFP mosaic into S0, S1, S2, AoP and DoP images.
+
+    Args:
+        raw: (H, W) raw frame, H and W even; uint8/uint16 counts or float32/float64 DN.
+        layout_deg: Analyser angle (deg) of raw pixel (r, c) of each 2×2 super-pixel
+            (default IMX250MZR: ((90, 45), (135, 0))). Angles from the image x-axis towards
+            decreasing row.
+        method: ``"superpixel"`` (H/2 × W/2, one estimate per 2×2 block) or ``"interpolate"``
+            (H × W, per-channel bilinear demosaicing).
+        black_level_dn: DN subtracted from every raw value before the Stokes inversion (the
+            camera's black level / pedestal).
+        saturation_dn: (optional) Raw value at and above which a pixel counts as clipped
+            (e.g. 4095 for a 12-bit ADC); sets the ``saturated`` mask.
+
+    Returns:
+        A :class:`PolarizationImage` (float32 layers; S in DN above black level).
+
+    Raises:
+        TypeError: If ``raw`` is not a numpy array of an accepted dtype.
+        ValueError: If ``raw`` is not 2-D with even, non-zero sizes, the method is unknown, the
+            layout is degenerate, or ``black_level_dn`` is not finite.
+    """
+    _check_raw(raw)
+    if method not in ("superpixel", "interpolate"):
+        raise ValueError(f"method = {method!r}: must be 'superpixel' or 'interpolate'")
+    if not math.isfinite(black_level_dn):
+        raise ValueError(f"black_level_dn = {black_level_dn!r}: must be finite")
+    w = analysis_pinv(layout_deg)
+    raw = _as_cv(raw)
+    if method == "superpixel":
+        s0, s1, s2 = _superpixel(raw, w, black_level_dn)
+    else:
+        s0, s1, s2 = _interpolate(raw, w, black_level_dn)
+    aop, dop = _aop_dop(s0, s1, s2)
+    sat = _saturation_mask(raw, saturation_dn, method)
+    return PolarizationImage(s0=s0, s1=s1, s2=s2, aop=aop, dop=dop, saturated=sat)

@@ -1,0 +1,355 @@
+"""The run loop: simulate a scenario, record it to Rerun, write metrics.
+
+Outputs, in ``out_dir``:
+  * ``recording.rrd``: the Rerun recording (open with ``rerun recording.rrd``).
+  * ``metrics.json``: the summary. It is written as ``"complete": false`` when the run starts and
+    rewritten at the end, so even a killed run leaves a file that says it is incomplete.
+
+Ctrl-C or an exception stops the loop; the recording is closed (footer written) and the metrics
+are written with ``"complete": false`` and the reason, before the exception propagates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from scenarios.schema import Scenario
+from twin.actuators import ActuatorCommand
+from twin.autopilot import Setpoint
+from twin.frames import wrap_deg180
+from twin.guidance import GuidanceStatus
+from twin.recorder import Recorder
+from twin.world import World, build_world
+
+# Keep running this long after the last leg is done, so the recording shows the vehicle settle.
+_MISSION_COMPLETE_TAIL_S = 5.0
+
+
+@dataclass
+class _Stats:
+    """Running sums for the metrics (cheap to update in the loop)."""
+
+    n: int = 0
+    depth_err_sq: float = 0.0
+    depth_err_max: float = 0.0
+    heading_err_sq: float = 0.0
+    cross_track_sq: float = 0.0
+    cross_track_max: float = 0.0
+    distance_m: float = 0.0
+    last_pos: np.ndarray | None = None
+    readings: dict[str, int] = field(default_factory=dict)
+    max_depth_m: float = 0.0
+    min_depth_m: float = math.inf
+
+
+def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(payload, indent=2, sort_keys=False, default=str) + "\n")
+    os.replace(tmp, path)
+
+
+class ChaseCamera:
+    """MuJoCo's 'chase' camera rendered offscreen, if a GL context can be had.
+
+    Without one (no ``MUJOCO_GL``, no EGL/OSMesa), :attr:`available` is False and the reason is in
+    :attr:`reason`; the run goes on without images.
+    """
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int):
+        self.available = False
+        self.reason = ""
+        self._renderer: mujoco.Renderer | None = None
+        # The offscreen buffer must be at least the image size.
+        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        try:
+            self._renderer = mujoco.Renderer(model, height=height, width=width)
+            self.available = True
+        except Exception as exc:
+            self.reason = f"{type(exc).__name__}: {exc}".strip()
+
+    def render(self, data: mujoco.MjData) -> np.ndarray:
+        assert self._renderer is not None
+        self._renderer.update_scene(data, camera="chase")
+        return self._renderer.render()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def _progress(total_s: float, enabled: bool):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=round(total_s), unit="sim s", desc="sea trial", file=sys.stderr, leave=True)
+
+
+def run_scenario(
+    scenario: Scenario,
+    out_dir: Path | str,
+    *,
+    seed: int | None = None,
+    progress: bool = False,
+    camera: bool | None = None,
+    on_message: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Run one sea trial and write its recording and metrics.
+
+    Args:
+        scenario: A validated scenario.
+        out_dir: Output folder (created).
+        seed: Root seed; defaults to the scenario's.
+        progress: Show a progress bar on stderr.
+        camera: Render the chase camera; ``None`` follows the scenario's recording settings.
+        on_message: Called with one-line notices (e.g. "no GL context"); default: stderr.
+
+    Returns:
+        The metrics dict (also written to ``out_dir/metrics.json``).
+    """
+    say = on_message or (lambda msg: print(msg, file=sys.stderr))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    metrics_path = out / "metrics.json"
+    world = build_world(scenario, seed)
+    seed_used = world.seed
+    base = {
+        "scenario": scenario.name,
+        "seed": seed_used,
+        "complete": False,
+        "status": "running",
+        "recording": "recording.rrd",
+        "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
+    }
+    _write_json_atomic(metrics_path, base)
+
+    rec = Recorder(
+        out / "recording.rrd",
+        recording_id=f"{scenario.name}-seed{seed_used}",
+        start_utc=scenario.start_utc,
+    )
+    want_camera = scenario.recording.camera if camera is None else camera
+    cam: ChaseCamera | None = None
+    if want_camera:
+        cam = ChaseCamera(
+            world.plant.model, scenario.recording.camera_width, scenario.recording.camera_height
+        )
+        if not cam.available:
+            say(f"note: no GL context for the chase camera ({cam.reason}); continuing without it")
+            cam = None
+
+    stats = _Stats()
+    status_text = "running"
+    error: str | None = None
+    wall0 = time.perf_counter()
+    bar = _progress(scenario.duration_s, progress)
+    try:
+        _log_scene(rec, world)
+        status_text = _loop(world, rec, cam, stats, bar)
+    except KeyboardInterrupt:
+        status_text, error = "interrupted", "KeyboardInterrupt"
+        raise
+    except Exception as exc:
+        status_text, error = "error", f"{type(exc).__name__}: {exc}"
+        raise
+    finally:
+        wall = time.perf_counter() - wall0
+        if bar is not None:
+            bar.close()
+        if cam is not None:
+            cam.close()
+        try:
+            rec.log_text(
+                world.plant.t, f"run ended: {status_text}" + (f" ({error})" if error else "")
+            )
+        finally:
+            rec.close()
+        metrics = {
+            **base,
+            "complete": status_text in ("mission_complete", "duration_reached"),
+            "status": status_text,
+            **({"error": error} if error else {}),
+            **_summarize(world, stats, wall),
+        }
+        _write_json_atomic(metrics_path, metrics)
+    return metrics
+
+
+def _log_scene(rec: Recorder, world: World) -> None:
+    wps = world.guidance.waypoints_en
+    depths = [leg.depth_m for leg in world.guidance.legs if hasattr(leg, "to_m")]
+    waypoints = (
+        np.array([[e, n, -d] for (e, n), d in zip(wps, depths, strict=False)]) if wps else None
+    )
+    seabed = world.scenario.water.seabed_depth_m
+    rec.log_static_scene(
+        waypoints_n=waypoints,
+        vehicle_half_sizes=(0.095, 0.8, 0.095),
+        surface_z=world.plant.surface_z_m,
+        seabed_z=-seabed if seabed is not None else None,
+        tank_half_sizes=(6.0, 3.0, 2.0) if world.scenario.scene == "tank" else None,
+    )
+
+
+def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, bar) -> str:
+    sc = world.scenario
+    plant, suite, guidance, autopilot = world.plant, world.suite, world.guidance, world.autopilot
+    dt = world.physics_dt
+    n_steps = round(sc.duration_s / dt)
+    every_ap = max(1, round(1.0 / (sc.autopilot.rate_hz * dt)))
+    every_truth = max(1, round(1.0 / (sc.recording.truth_rate_hz * dt)))
+    every_cam = max(1, round(1.0 / (sc.recording.camera_rate_hz * dt)))
+    every_bar = max(1, round(1.0 / dt))
+    cmd = ActuatorCommand()
+    sp = Setpoint(0.0, 0.0, 0.0)
+    status = GuidanceStatus(0, 0, False, 0.0)
+    complete_at: float | None = None
+    readings_count = stats.readings
+
+    for k in range(n_steps):
+        t = plant.t
+        if k % every_ap == 0:
+            nav = world.nav.nav_state()
+            sp, status = guidance.update(nav, t)
+            cmd = autopilot.update(nav, sp, every_ap * dt)
+            rec.log_scalars(
+                "/control/actuators",
+                t,
+                np.array(
+                    [
+                        math.degrees(cmd.rudder_rad),
+                        math.degrees(cmd.stern_rad),
+                        cmd.propeller_rps * 60,
+                    ]
+                ),
+                names=["rudder_deg", "stern_deg", "propeller_rpm"],
+            )
+            rec.log_scalars(
+                "/control/setpoint",
+                t,
+                np.array([sp.speed_mps, sp.depth_m, math.degrees(sp.heading_rad) % 360.0]),
+                names=["speed_mps", "depth_m", "heading_deg"],
+            )
+            if status.complete and complete_at is None:
+                complete_at = t
+                rec.log_text(t, "mission complete")
+        plant.step(cmd)
+        for reading in suite.poll(plant):
+            rec.log_reading(reading)
+            readings_count[reading.sensor] = readings_count.get(reading.sensor, 0) + 1
+        if (k + 1) % every_truth == 0:
+            truth = plant.truth()
+            rec.log_truth(
+                truth.t,
+                position_n=truth.position_n,
+                quat_wxyz=truth.quat_wxyz,
+                velocity_n=truth.velocity_n,
+                rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
+                heading_deg=truth.heading_deg,
+                depth_m=truth.depth_m,
+            )
+            _accumulate(stats, truth, sp, status, complete_at is None)
+        if cam is not None and (k + 1) % every_cam == 0:
+            rec.log_image("/camera/chase", plant.t, cam.render(plant.data))
+        if bar is not None and (k + 1) % every_bar == 0:
+            bar.update(1)
+        if complete_at is not None and plant.t - complete_at >= _MISSION_COMPLETE_TAIL_S:
+            return "mission_complete"
+    return "duration_reached"
+
+
+def _accumulate(stats: _Stats, truth, sp: Setpoint, status: GuidanceStatus, active: bool) -> None:
+    pos = truth.position_n
+    if stats.last_pos is not None:
+        stats.distance_m += float(np.linalg.norm(pos - stats.last_pos))
+    stats.last_pos = pos
+    stats.max_depth_m = max(stats.max_depth_m, truth.depth_m)
+    stats.min_depth_m = min(stats.min_depth_m, truth.depth_m)
+    if not active:
+        return
+    stats.n += 1
+    e_d = truth.depth_m - sp.depth_m
+    stats.depth_err_sq += e_d * e_d
+    stats.depth_err_max = max(stats.depth_err_max, abs(e_d))
+    e_h = float(wrap_deg180(truth.heading_deg - math.degrees(sp.heading_rad)))
+    stats.heading_err_sq += e_h * e_h
+    stats.cross_track_sq += status.cross_track_m**2
+    stats.cross_track_max = max(stats.cross_track_max, abs(status.cross_track_m))
+
+
+def _summarize(world: World, stats: _Stats, wall_s: float) -> dict[str, Any]:
+    plant = world.plant
+    truth = plant.truth()
+    n = max(stats.n, 1)
+    sim_s = plant.t
+    g = world.guidance
+    legs_total = len(g.legs)
+    return {
+        "sim_time_s": round(sim_s, 6),
+        "wall_time_s": round(wall_s, 3),
+        "real_time_factor": round(sim_s / wall_s, 2) if wall_s > 0 else None,
+        "mission": {
+            "kind": world.scenario.mission.kind,
+            "legs_total": legs_total,
+            "legs_completed": g.legs_completed,
+        },
+        "distance_travelled_m": round(stats.distance_m, 3),
+        "mean_speed_over_ground_mps": round(stats.distance_m / sim_s, 4) if sim_s > 0 else 0.0,
+        "depth_error_rms_m": round(math.sqrt(stats.depth_err_sq / n), 4),
+        "depth_error_max_m": round(stats.depth_err_max, 4),
+        "heading_error_rms_deg": round(math.sqrt(stats.heading_err_sq / n), 3),
+        "cross_track_rms_m": round(math.sqrt(stats.cross_track_sq / n), 3),
+        "cross_track_max_m": round(stats.cross_track_max, 3),
+        "depth_range_m": [round(stats.min_depth_m, 3), round(stats.max_depth_m, 3)]
+        if stats.min_depth_m != math.inf
+        else None,
+        "final": {
+            "east_m": round(float(truth.position_n[0]), 3),
+            "north_m": round(float(truth.position_n[1]), 3),
+            "depth_m": round(truth.depth_m, 3),
+            "heading_deg": round(truth.heading_deg, 3),
+        },
+        "sensor_readings": dict(sorted(stats.readings.items())),
+        "sensors": [s.describe() for s in world.suite.sensors],
+        "physics_timestep_s": world.physics_dt,
+        "mujoco_warnings": int(plant.data.warning.number.sum()),
+    }
+
+
+def format_summary(metrics: dict[str, Any]) -> str:
+    """A human-readable summary of a metrics dict (what the CLI prints)."""
+    m = metrics
+    lines = [
+        f"scenario {m['scenario']} (seed {m['seed']}): {m['status']}"
+        + ("" if m["complete"] else "  [INCOMPLETE]"),
+        f"  sim time {m.get('sim_time_s', 0):.1f} s in {m.get('wall_time_s', 0):.1f} s wall "
+        f"({m.get('real_time_factor')}x real time)",
+    ]
+    if "mission" in m:
+        ms = m["mission"]
+        lines.append(
+            f"  mission {ms['kind']}: legs {ms['legs_completed']}/{ms['legs_total']}, "
+            f"distance {m['distance_travelled_m']:.1f} m"
+        )
+        lines.append(
+            f"  depth error rms {m['depth_error_rms_m']:.3f} m (max {m['depth_error_max_m']:.3f}), "
+            f"heading error rms {m['heading_error_rms_deg']:.2f} deg, "
+            f"cross-track rms {m['cross_track_rms_m']:.2f} m"
+        )
+        lines.append(f"  sensor readings: {m['sensor_readings']}")
+    if "error" in m:
+        lines.append(f"  error: {m['error']}")
+    return "\n".join(lines)
