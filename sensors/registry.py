@@ -16,7 +16,7 @@ _BUILTIN_MODULES = ("sensors.imu", "sensors.depth")
 
 
 def register(cls: type[Sensor]) -> type[Sensor]:
-    """Class decorator: add a sensor class under its ``kind`` (registering one twice is an error)."""
+    """Class decorator: register a sensor class under its ``kind`` (once only)."""
     if not cls.kind:
         raise ValueError(f"{cls.__name__} has no 'kind'")
     existing = _REGISTRY.get(cls.kind)

@@ -132,6 +132,6 @@ def wrap_deg180(angle_deg: float | FloatArray) -> float | FloatArray:
 
 
 def skew(v: FloatArray) -> FloatArray:
-    """The cross-product matrix of v: skew(a) @ b == cross(a, b)."""
+    """Cross-product matrix: ``skew(a) @ b == cross(a, b)``."""
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])

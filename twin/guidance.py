@@ -1,6 +1,4 @@
-"""Guidance: turns a mission into autopilot setpoints (line-of-sight waypoint following,
-heading legs, loitering for station keeping).
-"""
+"""Guidance: a mission to autopilot setpoints (line of sight, heading legs, loitering)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
 """The plant: MuJoCo rigid-body physics plus Fossen hydrodynamics, buoyancy and current.
 
 One :meth:`Plant.step` is one MuJoCo step. Between ``mj_step1`` (positions, velocities, bias
-forces) and ``mj_step2`` (accelerations, constraints, integration) the plant computes the
-hydrodynamic wrench and applies it through ``qfrc_applied``.
+forces) and the acceleration stage the plant computes the hydrodynamic wrench and applies it
+through ``qfrc_applied``; see :meth:`Plant.step` for the order that keeps sensors in time.
 
 Added mass, implicitly. A REMUS's sway/heave added mass (29.4 kg) is about its rigid mass (31.0 kg);
 applied as an explicit force from last step's acceleration (as UUV Simulator and MarineGym do) that
@@ -153,6 +153,7 @@ class Plant:
         self._r_m, self._r_n = earth.principal_radii(self._lat0)
         self.reset()
         self._minv_total_b = np.linalg.inv(self.rigid_mass_matrix_b() + np.diag(self._ma_b_diag))
+        self._sync()
 
     # ---- WorldView ---------------------------------------------------------------------------
     @property
@@ -235,6 +236,8 @@ class Plant:
         self.data.ctrl[self._act_ids[2]] = rps
         self.limiter.reset((0.0, 0.0, rps))
         mujoco.mj_forward(self.model, self.data)
+        if hasattr(self, "_minv_total_b"):
+            self._sync()
 
     @staticmethod
     def _rotation_from_quat(q: np.ndarray) -> np.ndarray:
@@ -251,23 +254,34 @@ class Plant:
 
     # ---- stepping ----------------------------------------------------------------------------
     def step(self, command: ActuatorCommand) -> None:
-        """Advance one physics step under an actuator command."""
+        """Advance one physics step under an actuator command.
+
+        Order: ``mj_step2`` integrates from t to t + dt with the wrench computed for the state at
+        t; then :meth:`_sync` brings positions, velocities, the hydrodynamic wrench, accelerations
+        and every MJCF sensor to t + dt. So after a step ``data.time``, the state, the sensors and
+        the site poses all describe the same instant (after a bare ``mj_step`` MuJoCo's sensors
+        would still describe the state before integration).
+        """
         m, d = self.model, self.data
         dt_s = m.opt.timestep
         limited = self.limiter(command, dt_s)
         for i, aid in enumerate(self._act_ids):
             d.ctrl[aid] = limited[i]
-        self.current.step(dt_s)
-
-        mujoco.mj_step1(m, d)
-        d.qfrc_applied[:] = 0.0
-        self._apply_hydrodynamics()
         mujoco.mj_step2(m, d)
+        self.current.step(dt_s)
+        self._sync()
         if not math.isfinite(d.qpos[self._qpos + 2]) or not math.isfinite(d.qvel[self._dof]):
             raise FloatingPointError(
                 f"physics diverged at t = {d.time:.3f} s (non-finite state); "
                 "check the scenario's speeds and the time step"
             )
+
+    def _sync(self) -> None:
+        """Positions/velocities (``mj_step1``), the wrench, then accelerations and sensors."""
+        m, d = self.model, self.data
+        mujoco.mj_step1(m, d)
+        self._apply_hydrodynamics()
+        mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_VEL, 0)
 
     def _apply_hydrodynamics(self) -> None:
         # Plain float arithmetic: on 3- and 6-vectors numpy's per-call overhead costs more than

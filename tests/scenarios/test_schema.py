@@ -160,7 +160,7 @@ def test_lawnmower_trial_finishes_within_its_duration() -> None:
 def test_tank_trial() -> None:
     s = load("tank")
     assert s.scene == "tank"
-    assert s.duration_s == 120.0
+    assert s.duration_s <= 120.0  # a quick CI trial
     assert isinstance(s.mission, LegsMission)
     assert all(leg.depth_m == 2.0 for leg in s.mission.legs)
 

@@ -1,0 +1,74 @@
+"""Closed-loop responses of the autopilot and guidance on the REMUS plant."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from scenarios.schema import LegsMission, StationKeepingMission, WaypointLeg
+from twin.actuators import ActuatorCommand
+from twin.autopilot import Autopilot, Setpoint
+from twin.guidance import Guidance
+from twin.navsources import TruthNav
+from twin.plant import Plant, PlantConfig
+
+
+def _fly(plant: Plant, setpoint_fn, seconds: float, rate_hz: float = 10.0):
+    ap = Autopilot(plant.hydro.rps_for_speed)
+    nav = TruthNav(plant)
+    dt = plant.model.opt.timestep
+    every = round(1.0 / (rate_hz * dt))
+    cmd = ActuatorCommand()
+    log = []
+    for k in range(round(seconds / dt)):
+        if k % every == 0:
+            ns = nav.nav_state()
+            cmd = ap.update(ns, setpoint_fn(ns, plant.t), every * dt)
+        plant.step(cmd)
+        log.append(plant.truth())
+    return log
+
+
+def test_heading_depth_and_speed_steps_settle_without_large_overshoot() -> None:
+    plant = Plant(PlantConfig())
+    plant.reset(position_n=(0.0, 0.0, -5.0), forward_speed_mps=1.0)
+    sp = Setpoint(1.5, 10.0, math.radians(90.0))
+    log = _fly(plant, lambda ns, t: sp, 120.0)
+    heading = np.array([tr.heading_deg for tr in log])
+    depth = np.array([tr.depth_m for tr in log])
+    speed = np.array([tr.speed_through_water_mps for tr in log])
+    assert heading.max() < 92.0  # overshoot < 2 deg on a 90 deg step
+    assert abs(heading[-1] - 90.0) < 0.5
+    assert depth.max() < 10.3  # overshoot < 0.3 m on a 5 m step
+    assert abs(depth[-1] - 10.0) < 0.05
+    assert abs(speed[-1] - 1.5) < 0.02
+
+
+def test_waypoint_following_reaches_every_waypoint() -> None:
+    plant = Plant(PlantConfig())
+    plant.reset(position_n=(0.0, 0.0, -10.0), forward_speed_mps=1.5)
+    legs = (
+        WaypointLeg(to_m=(0.0, 100.0), depth_m=10.0, speed_mps=1.5),
+        WaypointLeg(to_m=(100.0, 100.0), depth_m=12.0, speed_mps=1.5),
+    )
+    g = Guidance(LegsMission(legs=legs, acceptance_radius_m=5.0), (0.0, 0.0))
+    states = []
+    log = _fly(plant, lambda ns, t: states.append(g.update(ns, t)) or states[-1][0], 200.0)
+    assert states[-1][1].complete
+    assert np.linalg.norm(log[-1].position_n[:2] - [100.0, 100.0]) < 15.0
+    # On the straight part of the second leg the vehicle is on the line.
+    late = [s for _, s in states[-300:-150]]
+    assert max(abs(s.cross_track_m) for s in late) < 1.0
+
+
+@pytest.mark.slow
+def test_station_keeping_loiters_on_its_circle() -> None:
+    plant = Plant(PlantConfig())
+    plant.reset(position_n=(0.0, 0.0, -10.0), forward_speed_mps=1.0)
+    m = StationKeepingMission(center_m=(0.0, 30.0), depth_m=10.0, radius_m=30.0, speed_mps=1.0)
+    g = Guidance(m, (0.0, 0.0))
+    log = _fly(plant, lambda ns, t: g.update(ns, t)[0], 300.0)
+    r = np.array([np.hypot(tr.position_n[0], tr.position_n[1] - 30.0) for tr in log[-10000:]])
+    assert np.all(np.abs(r - 30.0) < 3.0)
