@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -39,6 +40,7 @@ class SensorSuite:
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._rngs = [np.random.default_rng(s) for s in ss.spawn(len(self.sensors))]
         self._next_k = [0] * len(self.sensors)
+        self._next_t = [0.0] * len(self.sensors)
         self._pending: list[tuple[float, int, Reading]] = []
         self._counter = itertools.count()
 
@@ -52,21 +54,29 @@ class SensorSuite:
         """Start an episode: every sensor draws its turn-on errors; nothing pending."""
         for sensor, rng in zip(self.sensors, self._rngs, strict=True):
             sensor.reset(world, rng)
-        self._next_k = [int(np.ceil(world.t * s.rate_hz - _EPS_S)) for s in self.sensors]
+        self._next_k = [math.ceil(world.t * s.rate_hz - _EPS_S) for s in self.sensors]
+        self._next_t = [k / s.rate_hz for k, s in zip(self._next_k, self.sensors, strict=True)]
         self._pending.clear()
 
     def poll(self, world: WorldView) -> list[Reading]:
         """Sample the sensors that are due now; return readings delivered by now, oldest first."""
         t = world.t
-        for i, (sensor, rng) in enumerate(zip(self.sensors, self._rngs, strict=True)):
-            period = 1.0 / sensor.rate_hz
-            if self._next_k[i] * period <= t + _EPS_S:
-                values = sensor.sample(world, rng)
+        next_t = self._next_t
+        for i, sensor in enumerate(self.sensors):
+            if next_t[i] <= t + _EPS_S:
+                values = sensor.sample(world, self._rngs[i])
                 reading = Reading(sensor.name, t, t + sensor.delay_s, values)
                 heapq.heappush(self._pending, (reading.t_delivered, next(self._counter), reading))
-                # Skip instants the physics clock jumped over: one reading per step at most.
-                self._next_k[i] = int(np.floor(t / period + _EPS_S)) + 1
+                # Next instant k / rate after now (skipping any the physics clock jumped over),
+                # computed from k rather than accumulated, so it does not drift.
+                rate = sensor.rate_hz
+                k = math.floor(t * rate + _EPS_S) + 1
+                self._next_k[i] = k
+                next_t[i] = k / rate
+        pending = self._pending
+        if not pending or pending[0][0] > t + _EPS_S:
+            return []
         out: list[Reading] = []
-        while self._pending and self._pending[0][0] <= t + _EPS_S:
-            out.append(heapq.heappop(self._pending)[2])
+        while pending and pending[0][0] <= t + _EPS_S:
+            out.append(heapq.heappop(pending)[2])
         return out

@@ -9,7 +9,7 @@ import pytest
 
 from scenarios.schema import LegsMission, StationKeepingMission, WaypointLeg
 from twin.actuators import ActuatorCommand
-from twin.autopilot import Autopilot, Setpoint
+from twin.autopilot import Autopilot, NavState, Setpoint
 from twin.guidance import Guidance
 from twin.navsources import TruthNav
 from twin.plant import Plant, PlantConfig
@@ -72,3 +72,31 @@ def test_station_keeping_loiters_on_its_circle() -> None:
     log = _fly(plant, lambda ns, t: g.update(ns, t)[0], 300.0)
     r = np.array([np.hypot(tr.position_n[0], tr.position_n[1] - 30.0) for tr in log[-10000:]])
     assert np.all(np.abs(r - 30.0) < 3.0)
+
+
+def _nav(e: float, n: float) -> NavState:
+    return NavState(e, n, 10.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.5)
+
+
+def test_guidance_switches_at_the_wheel_over_point() -> None:
+    legs = (
+        WaypointLeg(to_m=(0.0, 100.0), depth_m=10.0, speed_mps=1.5),
+        WaypointLeg(to_m=(100.0, 100.0), depth_m=10.0, speed_mps=1.5),
+    )
+    mission = LegsMission(legs=legs, acceptance_radius_m=5.0)
+    # 90 deg turn, R = 20 m: wheel-over R tan(45 deg) = 20 m before the corner.
+    g = Guidance(mission, (0.0, 0.0), turn_radius_m=20.0)
+    assert g.update(_nav(0.0, 79.0), 0.0)[1].leg == 0
+    assert g.update(_nav(0.0, 81.0), 0.1)[1].leg == 1
+    # Without a turn radius it switches at the acceptance circle only.
+    g = Guidance(mission, (0.0, 0.0))
+    assert g.update(_nav(0.0, 94.0), 0.0)[1].leg == 0
+    assert g.update(_nav(0.0, 96.0), 0.1)[1].leg == 1
+
+
+def test_los_heading_points_back_to_the_path() -> None:
+    legs = (WaypointLeg(to_m=(0.0, 100.0), depth_m=10.0, speed_mps=1.5),)
+    g = Guidance(LegsMission(legs=legs), (0.0, 0.0), lookahead_m=8.0)
+    sp, st = g.update(_nav(8.0, 50.0), 0.0)  # 8 m right (east) of a northbound path
+    assert st.cross_track_m == pytest.approx(8.0)
+    assert math.degrees(sp.heading_rad) == pytest.approx(-45.0)  # steer north-west, back to it

@@ -46,11 +46,22 @@ class Guidance:
         mission: A validated scenario mission.
         start_en: The vehicle's start position (East, North), the first path's origin.
         lookahead_m: LOS look-ahead distance Δ (a few vehicle lengths).
+        turn_radius_m: The vehicle's turning radius. Between two waypoint legs the guidance
+            switches at the wheel-over point, R·tan(Δχ/2) before the waypoint (Δχ: the change of
+            course), so the turn ends on the next leg instead of overshooting it; a REMUS cannot
+            turn inside the acceptance circle. 0 disables it.
     """
 
-    def __init__(self, mission: Mission, start_en: tuple[float, float], lookahead_m: float = 8.0):
+    def __init__(
+        self,
+        mission: Mission,
+        start_en: tuple[float, float],
+        lookahead_m: float = 8.0,
+        turn_radius_m: float = 0.0,
+    ):
         self.mission = mission
         self._lookahead = lookahead_m
+        self._turn_radius = turn_radius_m
         self._acceptance = mission.acceptance_radius_m
         if isinstance(mission, LegsMission):
             self._legs: tuple[WaypointLeg | HeadingLeg, ...] = tuple(mission.legs)
@@ -96,8 +107,8 @@ class Guidance:
             # Reached when inside the acceptance circle or past the end of the segment.
             pe, pn = leg.to_m[0] - self._from[0], leg.to_m[1] - self._from[1]
             seg = math.hypot(pe, pn)
-            past_end = seg > 1e-9 and (de * pe + dn * pn) / seg < 0.0
-            if math.hypot(de, dn) > self._acceptance and not past_end:
+            to_go = (de * pe + dn * pn) / seg if seg > 1e-9 else 0.0  # along-track distance left
+            if math.hypot(de, dn) > self._acceptance and to_go > self._wheel_over(leg, pe, pn):
                 break
             self._next_leg(leg.to_m, t)
         n = len(self._legs)
@@ -120,6 +131,19 @@ class Guidance:
         sp = Setpoint(leg.speed_mps, leg.depth_m, heading)
         self._last_sp = sp
         return sp, GuidanceStatus(self._leg, n, False, e)
+
+    def _wheel_over(self, leg: WaypointLeg, pe: float, pn: float) -> float:
+        """Along-track distance before ``leg``'s waypoint at which to start the next turn."""
+        nxt = self._legs[self._leg + 1] if self._leg + 1 < len(self._legs) else None
+        if self._turn_radius <= 0 or not isinstance(nxt, WaypointLeg):
+            return 0.0
+        qe, qn = nxt.to_m[0] - leg.to_m[0], nxt.to_m[1] - leg.to_m[1]
+        if math.hypot(qe, qn) < 1e-9:
+            return 0.0
+        turn = abs(math.remainder(_bearing(qe, qn) - _bearing(pe, pn), 2 * math.pi))
+        # Beyond ~120 deg the tangent explodes; cap at the shorter of the two legs' halves.
+        limit = 0.5 * min(math.hypot(pe, pn), math.hypot(qe, qn))
+        return min(self._turn_radius * math.tan(min(turn, math.radians(120.0)) / 2), limit)
 
     def _next_leg(self, new_from: tuple[float, float], t: float) -> None:
         self._from = new_from

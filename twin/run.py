@@ -34,6 +34,8 @@ from twin.world import World, build_world
 
 # Keep running this long after the last leg is done, so the recording shows the vehicle settle.
 _MISSION_COMPLETE_TAIL_S = 5.0
+# Tracking counts as "steady" this long after a leg switch (a 90 deg REMUS turn takes ~40 s).
+_SETTLE_S = 45.0
 
 
 @dataclass
@@ -49,6 +51,12 @@ class _Stats:
     distance_m: float = 0.0
     last_pos: np.ndarray | None = None
     readings: dict[str, int] = field(default_factory=dict)
+    # The same errors on settled legs only (>= _SETTLE_S after a leg switch): the autopilot's
+    # tracking, without the corner turns that dominate the totals.
+    n_steady: int = 0
+    depth_err_sq_steady: float = 0.0
+    heading_err_sq_steady: float = 0.0
+    cross_track_sq_steady: float = 0.0
     max_depth_m: float = 0.0
     min_depth_m: float = math.inf
 
@@ -217,13 +225,17 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
     sp = Setpoint(0.0, 0.0, 0.0)
     status = GuidanceStatus(0, 0, False, 0.0)
     complete_at: float | None = None
+    leg_started_at = 0.0
     readings_count = stats.readings
 
     for k in range(n_steps):
         t = plant.t
         if k % every_ap == 0:
             nav = world.nav.nav_state()
+            prev_leg = status.leg
             sp, status = guidance.update(nav, t)
+            if status.leg != prev_leg:
+                leg_started_at = t
             cmd = autopilot.update(nav, sp, every_ap * dt)
             rec.log_scalars(
                 "/control/actuators",
@@ -261,7 +273,9 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
                 heading_deg=truth.heading_deg,
                 depth_m=truth.depth_m,
             )
-            _accumulate(stats, truth, sp, status, complete_at is None)
+            _accumulate(
+                stats, truth, sp, status, complete_at is None, truth.t - leg_started_at >= _SETTLE_S
+            )
         if cam is not None and (k + 1) % every_cam == 0:
             rec.log_image("/camera/chase", plant.t, cam.render(plant.data))
         if bar is not None and (k + 1) % every_bar == 0:
@@ -271,7 +285,9 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
     return "duration_reached"
 
 
-def _accumulate(stats: _Stats, truth, sp: Setpoint, status: GuidanceStatus, active: bool) -> None:
+def _accumulate(
+    stats: _Stats, truth, sp: Setpoint, status: GuidanceStatus, active: bool, settled: bool
+) -> None:
     pos = truth.position_n
     if stats.last_pos is not None:
         stats.distance_m += float(np.linalg.norm(pos - stats.last_pos))
@@ -288,12 +304,18 @@ def _accumulate(stats: _Stats, truth, sp: Setpoint, status: GuidanceStatus, acti
     stats.heading_err_sq += e_h * e_h
     stats.cross_track_sq += status.cross_track_m**2
     stats.cross_track_max = max(stats.cross_track_max, abs(status.cross_track_m))
+    if settled:
+        stats.n_steady += 1
+        stats.depth_err_sq_steady += e_d * e_d
+        stats.heading_err_sq_steady += e_h * e_h
+        stats.cross_track_sq_steady += status.cross_track_m**2
 
 
 def _summarize(world: World, stats: _Stats, wall_s: float) -> dict[str, Any]:
     plant = world.plant
     truth = plant.truth()
     n = max(stats.n, 1)
+    ns = max(stats.n_steady, 1)
     sim_s = plant.t
     g = world.guidance
     legs_total = len(g.legs)
@@ -313,6 +335,13 @@ def _summarize(world: World, stats: _Stats, wall_s: float) -> dict[str, Any]:
         "heading_error_rms_deg": round(math.sqrt(stats.heading_err_sq / n), 3),
         "cross_track_rms_m": round(math.sqrt(stats.cross_track_sq / n), 3),
         "cross_track_max_m": round(stats.cross_track_max, 3),
+        "steady_tracking": {
+            "samples": stats.n_steady,
+            "settle_after_leg_switch_s": _SETTLE_S,
+            "depth_error_rms_m": round(math.sqrt(stats.depth_err_sq_steady / ns), 4),
+            "heading_error_rms_deg": round(math.sqrt(stats.heading_err_sq_steady / ns), 3),
+            "cross_track_rms_m": round(math.sqrt(stats.cross_track_sq_steady / ns), 3),
+        },
         "depth_range_m": [round(stats.min_depth_m, 3), round(stats.max_depth_m, 3)]
         if stats.min_depth_m != math.inf
         else None,
@@ -349,6 +378,13 @@ def format_summary(metrics: dict[str, Any]) -> str:
             f"heading error rms {m['heading_error_rms_deg']:.2f} deg, "
             f"cross-track rms {m['cross_track_rms_m']:.2f} m"
         )
+        st = m["steady_tracking"]
+        if st["samples"]:
+            lines.append(
+                f"  settled legs (>{st['settle_after_leg_switch_s']:.0f} s after a switch): depth "
+                f"{st['depth_error_rms_m']:.3f} m, heading {st['heading_error_rms_deg']:.2f} deg, "
+                f"cross-track {st['cross_track_rms_m']:.2f} m rms"
+            )
         lines.append(f"  sensor readings: {m['sensor_readings']}")
     if "error" in m:
         lines.append(f"  error: {m['error']}")

@@ -107,7 +107,11 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
             "autopilot.attitude_source = 'estimate' needs the onboard navigation filter, "
             "which is not part of this release; use 'truth'"
         )
-    guidance = Guidance(scenario.mission, (ini.position_m[0], ini.position_m[1]))
+    # Wheel-over radius: about 3/4 of the 26 m full-rudder turning radius of the REMUS model, so
+    # the autopilot keeps some rudder in reserve through the turn.
+    guidance = Guidance(
+        scenario.mission, (ini.position_m[0], ini.position_m[1]), turn_radius_m=20.0
+    )
     autopilot = Autopilot(
         plant.hydro.rps_for_speed,
         max_rps=plant.params.prop_max_rpm / 60.0,

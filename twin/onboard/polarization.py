@@ -183,9 +183,8 @@ def _weighted_sum(terms: list[tuple[np.ndarray, float]], offset: float) -> NDArr
 
 
 def _superpixel(
-    raw: np.ndarray, w: NDArray[np.float64], black_level_dn: float
+    planes: list[list[np.ndarray]], w: NDArray[np.float64], black_level_dn: float
 ) -> list[NDArray[np.float32]]:
-    planes = _sub_lattices(raw)
     out = []
     for j in range(3):
         terms = [
@@ -226,11 +225,14 @@ def _interpolate(
 def _aop_dop(
     s0: NDArray[np.float32], s1: NDArray[np.float32], s2: NDArray[np.float32]
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    # OpenCV's subtract can return −0, and atan2(±0, −0) = ±π: make S1's zeros +0 so that no
+    # signal reads AoP 0.
+    s1 += np.float32(0.0)
     two_aop = np.arctan2(s2, s1)  # numpy's float32 arctan2 is SIMD and exact to ~1 ulp
-    # atan2 is in [−π, π]; +π (S2 = +0, S1 < 0) is the same axis as −π. Keep [−π, π).
-    wrap = two_aop >= _PI_F32
-    if wrap.any():
-        two_aop[wrap] -= np.float32(2.0 * math.pi)
+    # atan2 is in [−π, π]; +π (S2 = +0, S1 < 0) is the same axis as −π: keep [−π, π).
+    wrap = np.flatnonzero(two_aop >= _PI_F32)
+    if wrap.size:
+        two_aop.reshape(-1)[wrap] = -_PI_F32
     aop = two_aop
     aop *= np.float32(0.5)
     # DoP = min(|S_lin|, S0⁺) / max(S0, tiny): clipped to [0, 1] and 0 where S0 <= 0 in four SIMD
@@ -241,14 +243,20 @@ def _aop_dop(
     return aop, dop
 
 
-def _saturation_mask(raw: np.ndarray, saturation_dn: float | None, method: Method) -> np.ndarray:
+def _saturation_mask(
+    raw: np.ndarray,
+    planes: list[list[np.ndarray]] | None,
+    saturation_dn: float | None,
+    method: Method,
+) -> np.ndarray:
     h, w = raw.shape
     if saturation_dn is None:
         shape = (h // 2, w // 2) if method == "superpixel" else (h, w)
         return np.zeros(shape, dtype=bool)
-    if method == "superpixel":
-        p = _sub_lattices(raw)
-        brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
+    if planes is not None:  # superpixel: any of the four clipped
+        brightest = cv2.max(
+            cv2.max(planes[0][0], planes[0][1]), cv2.max(planes[1][0], planes[1][1])
+        )
         return brightest >= saturation_dn
     # A full-resolution output pixel uses raw values from its 3×3 neighbourhood.
     hit = (raw >= saturation_dn).view(np.uint8)
@@ -291,10 +299,12 @@ def stokes_from_mosaic(
         raise ValueError(f"black_level_dn = {black_level_dn!r}: must be finite")
     w = analysis_pinv(layout_deg)
     raw = _as_cv(raw)
+    planes = None
     if method == "superpixel":
-        s0, s1, s2 = _superpixel(raw, w, black_level_dn)
+        planes = _sub_lattices(raw)
+        s0, s1, s2 = _superpixel(planes, w, black_level_dn)
     else:
         s0, s1, s2 = _interpolate(raw, w, black_level_dn)
     aop, dop = _aop_dop(s0, s1, s2)
-    sat = _saturation_mask(raw, saturation_dn, method)
+    sat = _saturation_mask(raw, planes, saturation_dn, method)
     return PolarizationImage(s0=s0, s1=s1, s2=s2, aop=aop, dop=dop, saturated=sat)
