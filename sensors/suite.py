@@ -39,7 +39,6 @@ class SensorSuite:
         self.sensors = list(sensors)
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._rngs = [np.random.default_rng(s) for s in ss.spawn(len(self.sensors))]
-        self._next_k = [0] * len(self.sensors)
         self._next_t = [0.0] * len(self.sensors)
         self._pending: list[tuple[float, int, Reading]] = []
         self._counter = itertools.count()
@@ -54,8 +53,7 @@ class SensorSuite:
         """Start an episode: every sensor draws its turn-on errors; nothing pending."""
         for sensor, rng in zip(self.sensors, self._rngs, strict=True):
             sensor.reset(world, rng)
-        self._next_k = [math.ceil(world.t * s.rate_hz - _EPS_S) for s in self.sensors]
-        self._next_t = [k / s.rate_hz for k, s in zip(self._next_k, self.sensors, strict=True)]
+        self._next_t = [math.ceil(world.t * s.rate_hz - _EPS_S) / s.rate_hz for s in self.sensors]
         self._pending.clear()
 
     def poll(self, world: WorldView) -> list[Reading]:
@@ -70,9 +68,7 @@ class SensorSuite:
                 # Next instant k / rate after now (skipping any the physics clock jumped over),
                 # computed from k rather than accumulated, so it does not drift.
                 rate = sensor.rate_hz
-                k = math.floor(t * rate + _EPS_S) + 1
-                self._next_k[i] = k
-                next_t[i] = k / rate
+                next_t[i] = (math.floor(t * rate + _EPS_S) + 1) / rate
         pending = self._pending
         if not pending or pending[0][0] > t + _EPS_S:
             return []

@@ -68,7 +68,10 @@ def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
 
 
 class ChaseCamera:
-    """MuJoCo's 'chase' camera rendered offscreen, if a GL context can be had.
+    """MuJoCo's view of the vehicle rendered offscreen, if a GL context can be had.
+
+    Uses the scene's ``overview`` camera when it has one (the tank: the vehicle's chase camera
+    would sit outside the walls), else the vehicle's ``chase`` camera.
 
     Without one (no ``MUJOCO_GL``, no EGL/OSMesa), :attr:`available` is False and the reason is in
     :attr:`reason`; the run goes on without images.
@@ -78,6 +81,11 @@ class ChaseCamera:
         self.available = False
         self.reason = ""
         self._renderer: mujoco.Renderer | None = None
+        self.camera = (
+            "overview"
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "overview") >= 0
+            else "chase"
+        )
         # The offscreen buffer must be at least the image size.
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
@@ -89,7 +97,7 @@ class ChaseCamera:
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         assert self._renderer is not None
-        self._renderer.update_scene(data, camera="chase")
+        self._renderer.update_scene(data, camera=self.camera)
         return self._renderer.render()
 
     def close(self) -> None:
