@@ -1,0 +1,916 @@
+"""Stage 1 of the polarimeter chain: camera geometry (fisheye or pinhole), binning and housing port.
+
+Frames and image axes
+---------------------
+* **Camera frame** = the MJCF ``polarimeter`` site frame: x right (starboard), y forward, z = the
+  optical axis (up when the vehicle is level). A pixel's *ray* is the unit vector, in this frame,
+  along which the pixel looks (from the camera out towards the scene); the light it records
+  travels along ``-ray``.
+* **Image axes**: column ``u`` increases along camera +x, row ``v`` increases along camera −y; pixel
+  centres sit at integer ``(u, v)``, pixel ``(0, 0)`` is the top-left one, and arrays are indexed
+  ``[v, u]`` (``(H, W)`` = (rows, columns)). A level, upward-looking camera on a vehicle heading
+  North therefore sees North at the top and East on the right of the image: the sky drawn as a
+  map seen from above, the convention of the MOI paper's hypothetical imager (its eq. 16: body x
+  along the columns, body y against the rows, ray ∝ (x, y, f), eq. 18). A physical camera looking
+  up delivers the mirror image of this (the sky as seen from below, East on the left); frames from
+  real hardware must be mirrored (e.g. flipped left-right) to match, and so must any micro-polarizer
+  angles quoted for them.
+* **Sensor-plane polarization**: Stokes vectors on the sensor are stated with the
+  :mod:`sensors.polarimeter.stokes` convention for light hitting the sensor, i.e. propagation
+  ``SENSOR_PROPAGATION`` = −z and reference ``SENSOR_REFERENCE`` = +x (= +u). An E-vector angle ψ
+  therefore turns from +x towards d × ref = −y, i.e. from +u towards +v (clockwise on a displayed
+  image, whose v axis points down).
+
+Projection models (``FisheyeSpec.projection``)
+----------------------------------------------
+The radial model maps the angle θ between a ray and the optical axis, θ = atan2(√(x²+y²), z) —
+valid up to 180°, unlike OpenCV's fisheye model, which uses θ = atan(r) and folds rays beyond 90°
+onto the wrong side (optics.md §3.5) — to a radius ρ on the sensor (full-resolution pixels):
+
+* ``"kannala_brandt"``: ρ = f·(θ + k1θ³ + k2θ⁵ + k3θ⁷ + k4θ⁹) (Kannala & Brandt 2006; k = 0 is the
+  equidistant fisheye ρ = fθ).
+* ``"scaramuzza"`` (OCamCalib, Scaramuzza et al. 2006): the back-projected ray of sensor point
+  (x', y') is ∝ (x', y', g(ρ)) with g(ρ) = a0 + a1ρ + a2ρ² + … in OCamCalib's sign convention
+  (a0 < 0, the camera looking along −g), i.e. θ(ρ) = atan2(ρ, −g(ρ)); the image point is
+  [u − cu, v − cv] = A·[x', y'] with the affine stretch A = [[c, d], [e, 1]]. Coefficients are in
+  full-resolution pixels and in *this module's* (u, v) axes; OCamCalib's own files list (row, col)
+  first, so importing one needs the axes swapped (not done here).
+* ``"perspective"``: ρ = f·tan θ — the MOI paper's in-air pinhole (eqs. 16–18), θ < 90° only.
+
+Projection (direction → pixel) inverts the monotone radial model by table interpolation and Newton
+steps; pixel → ray → pixel round trips to ~1e-12 px, also beyond θ = 90°.
+
+Binning
+-------
+``binning`` b ∈ {1, 2, 4} models on-sensor binning of a division-of-focal-plane polarization sensor
+that keeps the 2×2 micro-polarizer super-pixel meaningful: within every 2b×2b block the b×b pixels
+that carry the *same* polarizer orientation are summed, so the binned frame is again a 2×2-mosaic,
+of (H/b)×(W/b) pixels with an effective pitch of b·p. (Binning adjacent pixels instead would mix
+the four orientations and destroy the polarization measurement.) The geometry treats the binned
+frame as a uniform grid: binned pixel k is centred at full-resolution coordinate b·k + (b − 1)/2.
+The true centroid of the b×b same-orientation pixels lies ±(b − 1)/2 full-resolution pixels from
+that, alternating with the super-pixel phase — neglected (it is below one binned pixel). Both
+sensor sizes must therefore be multiples of 2b. Intrinsics (focal length, principal point, OCamCalib
+polynomial) are always given for the full-resolution sensor. A binning-2 camera's pixel centres are
+also the centres of the full-resolution 2×2 super-pixels.
+
+Housing (``FisheyeSpec.housing``)
+---------------------------------
+* ``"dome"``: a hemispherical dome concentric with the lens's entrance pupil passes every ray
+  unbent (normal incidence on both dome surfaces: an angle-independent, non-polarizing Fresnel
+  loss, left to the renderer's throughput factor). The lens sees the whole in-water hemisphere.
+* ``"flat"``: a plane-parallel port perpendicular to the optical axis. A ray leaving the lens at θ_a
+  in the housing air crosses glass at θ_g and continues in water at θ_w with
+  n_a sin θ_a = n_g sin θ_g = n_w sin θ_w (Snell twice; the glass shifts the ray sideways only,
+  the direction change is the air↔water one). Lens rays at θ_a ≥ 90° never leave the housing, and
+  in-water rays beyond the critical angle asin(n_a/n_w) never reach the lens (optics.md §2.4).
+  :func:`flat_port_refraction` / :func:`flat_port_inverse` map the directions, :class:`PortRays`
+  carries the per-pixel angles and indices of both interfaces — the boundary to the Fresnel
+  transmission Mueller matrices of :mod:`sensors.polarimeter.surface`, which the renderer applies
+  in each interface's plane of incidence (the plane through the ray and the camera z axis:
+  ``stokes.meridian_reference(d, up=(0, 0, 1))`` in the camera frame).
+
+How the lens carries polarization onto the sensor (``FisheyeSpec.polarization_mapping``)
+--------------------------------------------------------------------------------------
+An E-vector is perpendicular to its ray, not to the optical axis, so a lens must map it
+(optics.md §7):
+
+* ``"meridional"`` (default): an ideal rotationally symmetric lens turns each ray onto the optical
+  axis by the rotation about ẑ × ray (in the ray's meridional plane); the E-vector turns with it.
+  A pure change of reference, linear in (I, Q, U): the sensor +x axis corresponds, at a ray p
+  (camera frame), to ``R_p x̂ = (1 − p_x²/(1+p_z), −p_x p_y/(1+p_z), −p_x)`` (Rodrigues' formula
+  for the rotation taking ẑ to p), see :attr:`Camera.sensor_reference`.
+  :meth:`Camera.sensor_stokes_from_meridian` is the per-frame fast path from ENU-meridian Stokes.
+* ``"orthographic"``: the E-vector's component along the optical axis is dropped (the MOI paper's
+  hypothetical imager, eqs. 22–23); I and the DoP are kept, the AoP is that of the projected
+  E-vector. Not linear in Stokes; the MOI preset uses it so that the paper's simulation is
+  reproduced exactly.
+Real lenses add incidence-angle dependent diattenuation and retardance; not modelled.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, DTypeLike, NDArray
+
+from sensors.polarimeter import stokes as stokes_mod
+
+FloatArray = NDArray[np.floating]
+BoolArray = NDArray[np.bool_]
+
+Projection = Literal["kannala_brandt", "scaramuzza", "perspective"]
+Housing = Literal["dome", "flat"]
+PolarizationMapping = Literal["meridional", "orthographic"]
+
+_PROJECTIONS = ("kannala_brandt", "scaramuzza", "perspective")
+_HOUSINGS = ("dome", "flat")
+_MAPPINGS = ("meridional", "orthographic")
+_BINNINGS = (1, 2, 4)
+
+#: Propagation direction (camera frame) of light arriving at the sensor: down the optical axis.
+SENSOR_PROPAGATION: FloatArray = np.array([0.0, 0.0, -1.0])
+#: Reference axis (camera frame) of sensor-plane Stokes vectors: camera +x = image +u.
+SENSOR_REFERENCE: FloatArray = np.array([1.0, 0.0, 0.0])
+
+
+# --------------------------------------------------------------------------------------------------
+# Specification
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class FisheyeSpec:
+    """Intrinsics, size, binning and housing of the polarimeter's camera (fisheye or pinhole).
+
+    Attributes:
+        width_px: Full-resolution sensor columns (> 0, a multiple of 2·binning).
+        height_px: Full-resolution sensor rows (> 0, a multiple of 2·binning).
+        pixel_pitch_um: Full-resolution pixel pitch in µm (square pixels).
+        binning: 1, 2 or 4: same-orientation binning (module docstring); the frame is
+            (height_px/binning) × (width_px/binning).
+        projection: ``"kannala_brandt"``, ``"scaramuzza"`` or ``"perspective"`` (module docstring).
+        focal_length_mm: Focal length f (Kannala–Brandt, perspective). Unused by ``"scaramuzza"``.
+        kb_coeffs: Kannala–Brandt (k1, k2, k3, k4), θ in radians.
+        ocam_poly: OCamCalib polynomial (a0, a1, a2, …) in full-resolution pixels, a0 < 0.
+        ocam_affine: OCamCalib affine stretch (c, d, e) of A = [[c, d], [e, 1]].
+        principal_point_px: (u, v) of the optical axis in full-resolution pixel coordinates
+            (pixel centres at integers); None = the sensor centre ((W − 1)/2, (H − 1)/2).
+        max_field_angle_deg: Half field of view θ_max (the image circle), in (0, 180); < 90 for a
+            perspective camera. Pixels beyond it are invalid. Default 92.5° = a 185° fisheye.
+        housing: ``"dome"`` or ``"flat"`` port (module docstring).
+        port_glass_index: Refractive index of the flat port's window (≥ 1). Default 1.49 (PMMA, the
+            transparent shell of the ROI-A paper's underwater rig); only used by ``"flat"``.
+        polarization_mapping: ``"meridional"`` or ``"orthographic"`` (module docstring).
+        name: A label (preset name).
+    """
+
+    width_px: int = 2448
+    height_px: int = 2048
+    pixel_pitch_um: float = 3.45
+    binning: int = 1
+    projection: Projection = "kannala_brandt"
+    focal_length_mm: float = 1.8
+    kb_coeffs: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    ocam_poly: tuple[float, ...] = ()
+    ocam_affine: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    principal_point_px: tuple[float, float] | None = None
+    max_field_angle_deg: float = 92.5
+    housing: Housing = "dome"
+    port_glass_index: float = 1.49
+    polarization_mapping: PolarizationMapping = "meridional"
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        """Validate every field; raise ValueError naming the field and its allowed range."""
+        if self.binning not in _BINNINGS:
+            raise ValueError(
+                f"FisheyeSpec.binning must be one of {_BINNINGS}, got {self.binning!r}"
+            )
+        for field in ("width_px", "height_px"):
+            val = getattr(self, field)
+            if isinstance(val, bool) or not isinstance(val, int | np.integer) or val <= 0:
+                raise ValueError(f"FisheyeSpec.{field} must be a positive integer, got {val!r}")
+            if val % (2 * self.binning):
+                raise ValueError(
+                    f"FisheyeSpec.{field} must be a multiple of 2*binning = {2 * self.binning} "
+                    f"(whole 2x2 polarizer super-pixels after binning), got {val}"
+                )
+        _check_positive("pixel_pitch_um", self.pixel_pitch_um)
+        if self.projection not in _PROJECTIONS:
+            raise ValueError(
+                f"FisheyeSpec.projection must be one of {_PROJECTIONS}, got {self.projection!r}"
+            )
+        _check_positive("focal_length_mm", self.focal_length_mm)
+        if len(self.kb_coeffs) != 4 or not all(math.isfinite(k) for k in self.kb_coeffs):
+            raise ValueError(
+                f"FisheyeSpec.kb_coeffs must be 4 finite numbers (k1..k4), got {self.kb_coeffs!r}"
+            )
+        if not all(math.isfinite(a) for a in self.ocam_poly):
+            raise ValueError(f"FisheyeSpec.ocam_poly must be finite, got {self.ocam_poly!r}")
+        if self.projection == "scaramuzza" and (not self.ocam_poly or self.ocam_poly[0] >= 0):
+            raise ValueError(
+                "FisheyeSpec.ocam_poly must be non-empty with a0 < 0 (OCamCalib convention) for "
+                f"projection='scaramuzza', got {self.ocam_poly!r}"
+            )
+        c, d, e = self.ocam_affine
+        if not all(math.isfinite(v) for v in (c, d, e)) or abs(c - d * e) < 1e-9:
+            raise ValueError(
+                "FisheyeSpec.ocam_affine (c, d, e) must be finite with c - d*e != 0, "
+                f"got {self.ocam_affine!r}"
+            )
+        if self.principal_point_px is not None and (
+            len(self.principal_point_px) != 2
+            or not all(math.isfinite(v) for v in self.principal_point_px)
+        ):
+            raise ValueError(
+                "FisheyeSpec.principal_point_px must be None or two finite pixel coordinates, "
+                f"got {self.principal_point_px!r}"
+            )
+        theta_lim = 90.0 if self.projection == "perspective" else 180.0
+        if not (0.0 < self.max_field_angle_deg < theta_lim):
+            raise ValueError(
+                f"FisheyeSpec.max_field_angle_deg must be in (0, {theta_lim:g}) for projection "
+                f"{self.projection!r}, got {self.max_field_angle_deg!r}"
+            )
+        if self.housing not in _HOUSINGS:
+            raise ValueError(
+                f"FisheyeSpec.housing must be one of {_HOUSINGS}, got {self.housing!r}"
+            )
+        if not (math.isfinite(self.port_glass_index) and self.port_glass_index >= 1.0):
+            raise ValueError(
+                f"FisheyeSpec.port_glass_index must be a finite number >= 1, "
+                f"got {self.port_glass_index!r}"
+            )
+        if self.polarization_mapping not in _MAPPINGS:
+            raise ValueError(
+                f"FisheyeSpec.polarization_mapping must be one of {_MAPPINGS}, "
+                f"got {self.polarization_mapping!r}"
+            )
+        # Fails here, not at first use, if the radial model folds back inside the field of view.
+        _RadialModel(self)
+
+    # Derived sizes -------------------------------------------------------------------------------
+    @property
+    def image_width(self) -> int:
+        """Columns of the (binned) frame."""
+        return self.width_px // self.binning
+
+    @property
+    def image_height(self) -> int:
+        """Rows of the (binned) frame."""
+        return self.height_px // self.binning
+
+    @property
+    def focal_length_px(self) -> float:
+        """Focal length in full-resolution pixels."""
+        return self.focal_length_mm / (self.pixel_pitch_um * 1e-3)
+
+    @property
+    def principal_point_full_px(self) -> tuple[float, float]:
+        """Principal point (u, v) in full-resolution pixel coordinates."""
+        if self.principal_point_px is None:
+            return ((self.width_px - 1) / 2.0, (self.height_px - 1) / 2.0)
+        return (float(self.principal_point_px[0]), float(self.principal_point_px[1]))
+
+
+def _check_positive(field: str, value: float) -> None:
+    if not (isinstance(value, int | float | np.floating) and math.isfinite(value) and value > 0):
+        raise ValueError(f"FisheyeSpec.{field} must be a finite number > 0, got {value!r}")
+
+
+# --------------------------------------------------------------------------------------------------
+# Radial model: θ (angle off the optical axis) <-> ρ (sensor-plane radius, full-resolution pixels)
+# --------------------------------------------------------------------------------------------------
+
+
+class _RadialModel:
+    """The monotone radial mapping of a spec, both ways, in float64."""
+
+    _TABLE = 65537
+
+    def __init__(self, spec: FisheyeSpec) -> None:
+        self.kind = spec.projection
+        self.f_px = spec.focal_length_px
+        self.k = np.array(spec.kb_coeffs, dtype=np.float64)
+        self.a = np.array(spec.ocam_poly, dtype=np.float64)
+        self.theta_max = math.radians(spec.max_field_angle_deg)
+        if self.kind == "kannala_brandt":
+            self._init_kb()
+        elif self.kind == "scaramuzza":
+            self._init_ocam(spec)
+        else:
+            self.theta_lim = math.pi / 2
+        self.rho_max = float(self.rho_of_theta(np.array([self.theta_max]))[0])
+
+    # Kannala–Brandt -------------------------------------------------------------------------------
+    def _init_kb(self) -> None:
+        theta = np.linspace(0.0, math.pi, self._TABLE)
+        drho = self._kb_drho(theta)
+        bad = np.flatnonzero(drho <= 0)
+        self.theta_lim = float(theta[bad[0] - 1]) if bad.size else math.pi
+        if self.theta_lim < self.theta_max:
+            raise ValueError(
+                "FisheyeSpec.kb_coeffs make the Kannala-Brandt radius non-increasing at "
+                f"theta = {math.degrees(self.theta_lim):.2f} deg, inside max_field_angle_deg"
+            )
+        self._theta_tab = np.linspace(0.0, self.theta_lim, self._TABLE)
+        self._rho_tab = self._kb_rho(self._theta_tab)
+
+    def _kb_rho(self, t: FloatArray) -> FloatArray:
+        t2 = t * t
+        k1, k2, k3, k4 = self.k
+        return self.f_px * t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+
+    def _kb_drho(self, t: FloatArray) -> FloatArray:
+        t2 = t * t
+        k1, k2, k3, k4 = self.k
+        return self.f_px * (1.0 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4))))
+
+    # Scaramuzza / OCamCalib -----------------------------------------------------------------------
+    def _init_ocam(self, spec: FisheyeSpec) -> None:
+        # Search the monotone branch of θ(ρ) out to well beyond the sensor diagonal.
+        diag = math.hypot(spec.width_px, spec.height_px)
+        rho = np.linspace(0.0, 4.0 * diag, 40001)
+        theta = self._ocam_theta(rho)
+        dtheta = self._ocam_dtheta(rho)
+        stop = np.flatnonzero((dtheta <= 0) | (theta >= math.pi - 1e-9))
+        last = stop[0] - 1 if stop.size else rho.size - 1
+        self.theta_lim = float(theta[last])
+        if last < 1 or self.theta_lim < self.theta_max:
+            raise ValueError(
+                "FisheyeSpec.ocam_poly gives a non-increasing field angle before "
+                f"max_field_angle_deg (reaches only {math.degrees(self.theta_lim):.2f} deg)"
+            )
+        self._rho_tab = np.linspace(0.0, float(rho[last]), self._TABLE)
+        self._theta_tab = self._ocam_theta(self._rho_tab)
+
+    def _ocam_g(self, rho: FloatArray) -> FloatArray:
+        return np.polynomial.polynomial.polyval(rho, self.a)
+
+    def _ocam_dg(self, rho: FloatArray) -> FloatArray:
+        return np.polynomial.polynomial.polyval(rho, np.polynomial.polynomial.polyder(self.a))
+
+    def _ocam_theta(self, rho: FloatArray) -> FloatArray:
+        return np.arctan2(rho, -self._ocam_g(rho))
+
+    def _ocam_dtheta(self, rho: FloatArray) -> FloatArray:
+        g = self._ocam_g(rho)
+        return (rho * self._ocam_dg(rho) - g) / (rho * rho + g * g)
+
+    # Both ways ------------------------------------------------------------------------------------
+    def rho_of_theta(self, theta: FloatArray) -> FloatArray:
+        """Sensor radius (full-res px) of field angle θ; θ beyond the monotone range is clamped."""
+        t = np.clip(theta, 0.0, self.theta_lim)
+        if self.kind == "kannala_brandt":
+            return self._kb_rho(t)
+        if self.kind == "perspective":
+            return self.f_px * np.tan(np.minimum(t, math.pi / 2 - 1e-9))
+        rho = np.interp(t, self._theta_tab, self._rho_tab)
+        for _ in range(4):  # Newton on θ(ρ) − t: quadratic from an already close start
+            step = (self._ocam_theta(rho) - t) / np.maximum(self._ocam_dtheta(rho), 1e-300)
+            rho = np.clip(rho - step, 0.0, self._rho_tab[-1])
+        return rho
+
+    def theta_of_rho(self, rho: FloatArray) -> FloatArray:
+        """Field angle of sensor radius ρ (full-res px); beyond the monotone range: clamped."""
+        if self.kind == "perspective":
+            return np.arctan2(rho, self.f_px)
+        if self.kind == "scaramuzza":
+            return np.minimum(self._ocam_theta(np.minimum(rho, self._rho_tab[-1])), self.theta_lim)
+        if not np.any(self.k):  # equidistant: exact, and the common case
+            return np.minimum(rho / self.f_px, self.theta_lim)
+        # A dense table leaves ~1e-9 rad; one Newton step squares that away.
+        t = np.interp(rho, self._rho_tab, self._theta_tab)
+        return np.clip(t - (self._kb_rho(t) - rho) / self._kb_drho(t), 0.0, self.theta_lim)
+
+    def dtheta_drho(self, theta: FloatArray, rho: FloatArray) -> FloatArray:
+        """dθ/dρ at matching (θ, ρ), for the pixel solid angle."""
+        if self.kind == "kannala_brandt":
+            return 1.0 / self._kb_drho(theta)
+        if self.kind == "perspective":
+            return self.f_px / (self.f_px**2 + rho * rho)
+        return self._ocam_dtheta(rho)
+
+
+#: Camera presets. Sources: sensor facts optics.md §3.1; lenses §3.5 and the seed papers.
+PRESETS: dict[str, FisheyeSpec] = {
+    # LUCID Phoenix PHX050S-P (Sony IMX250MZR, 2448x2048, 3.45 um) + Fujinon FE185C057HA-1, the
+    # LIG paper's polarimeter. The lens is modelled as an ideal equidistant 185 deg fisheye with
+    # f = 1.8 mm [uncertain: from Fujinon's naming, where "057" is the 5.7 mm image circle, and its
+    # sibling FE185C046HA-1 = 1.4 mm quoted by the xin2024 seed; 1.8 mm * 92.5 deg gives a 5.81 mm,
+    # i.e. 1685 px circle that fits the 2048 rows (optics.md §3.5). f = 2.7 mm would be the
+    # FE185C086HA-1, whose 8.7 mm circle would not fit the 7.07 mm high sensor]. Distortion
+    # coefficients are not published: k = 0 until a calibration is available.
+    "phx050s_fe185": FisheyeSpec(
+        name="phx050s_fe185",
+        width_px=2448,
+        height_px=2048,
+        pixel_pitch_um=3.45,
+        projection="kannala_brandt",
+        focal_length_mm=1.8,
+        max_field_angle_deg=92.5,
+    ),
+    # Sony IMX264MZR board camera (same 2448x2048, 3.45 um array; slower readout, other noise)
+    # with the same FE185C057HA-1 lens, as in the ROI-A seed (fang2024 Table 2). Same geometry.
+    "imx264_185": FisheyeSpec(
+        name="imx264_185",
+        width_px=2448,
+        height_px=2048,
+        pixel_pitch_um=3.45,
+        projection="kannala_brandt",
+        focal_length_mm=1.8,
+        max_field_angle_deg=92.5,
+    ),
+    # The MOI paper's hypothetical in-air imager (its §3.2, Table 1): a pinhole with f = 8 mm,
+    # eta_x = 2048 pixels along x (columns) and eta_y = 2448 along y (rows) — eq. 16 read literally
+    # (Table 1 does not say which is rows; optics.md §7) — 3.45 um pixels, and the orthographic
+    # E-vector projection of its eqs. 22-23. Half-diagonal field 34.5 deg: every pixel is valid.
+    "moi_pinhole": FisheyeSpec(
+        name="moi_pinhole",
+        width_px=2048,
+        height_px=2448,
+        pixel_pitch_um=3.45,
+        projection="perspective",
+        focal_length_mm=8.0,
+        max_field_angle_deg=60.0,
+        polarization_mapping="orthographic",
+    ),
+}
+
+
+def preset(name: str, **overrides: object) -> FisheyeSpec:
+    """A preset :class:`FisheyeSpec`, with fields replaced by ``overrides`` (e.g. ``binning=4``)."""
+    if name not in PRESETS:
+        raise ValueError(f"camera preset must be one of {sorted(PRESETS)}, got {name!r}")
+    return dataclasses.replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------------------------------
+# Flat port
+# --------------------------------------------------------------------------------------------------
+
+
+def _check_index(name: str, n: float) -> float:
+    n = float(n)
+    if not (math.isfinite(n) and n >= 1.0):
+        raise ValueError(f"{name} must be a finite refractive index >= 1, got {n!r}")
+    return n
+
+
+def flat_port_refraction(
+    dirs_inside: ArrayLike, n_outside: float, n_glass: float, n_inside: float = 1.0
+) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray, FloatArray]:
+    """Housing-side (lens) ray directions → directions in the outside medium, through a flat port.
+
+    The port is a plane-parallel window perpendicular to the camera z axis. Snell's law at both
+    faces, n_in sin θ_in = n_g sin θ_g = n_out sin θ_out, with the azimuth kept (vector form:
+    t_xy = (n_in/n_out)·d_xy, t_z = √(1 − |t_xy|²)).
+
+    Args:
+        dirs_inside: (..., 3) unit vectors (camera frame) along which the lens looks, in the
+            housing's gas.
+        n_outside: Refractive index outside (water, e.g. from Quan–Fry).
+        n_glass: Index of the window.
+        n_inside: Index of the housing gas (1.0 = air).
+
+    Returns:
+        ``(dirs_outside, valid, cos_inside, cos_glass, cos_outside)``: the outward directions in the
+        outside medium (camera frame), whether the ray leaves through the port (θ_in < 90°), and the
+        cosines of the angles to the port normal in the three media (the Fresnel hook: interface
+        outside→glass has incidence cos_outside and transmission cos_glass, glass→inside has
+        cos_glass and cos_inside). Invalid rays get the port normal and cosines 1, never NaN.
+    """
+    n_out = _check_index("n_outside", n_outside)
+    n_g = _check_index("n_glass", n_glass)
+    n_in = _check_index("n_inside", n_inside)
+    d = np.asarray(dirs_inside)
+    valid = d[..., 2] > 0.0
+    s_in2 = np.minimum(d[..., 0] ** 2 + d[..., 1] ** 2, 1.0)
+    cos_in = np.where(valid, np.sqrt(1.0 - s_in2), 1.0)
+    ratio_g = (n_in / n_g) ** 2
+    ratio_o = (n_in / n_out) ** 2
+    cos_g = np.where(valid, np.sqrt(np.maximum(1.0 - ratio_g * s_in2, 0.0)), 1.0)
+    cos_o = np.where(valid, np.sqrt(np.maximum(1.0 - ratio_o * s_in2, 0.0)), 1.0)
+    scale = np.where(valid, n_in / n_out, 0.0)
+    out = np.stack([d[..., 0] * scale, d[..., 1] * scale, cos_o], axis=-1).astype(d.dtype)
+    return out, valid, cos_in, cos_g, cos_o
+
+
+def flat_port_inverse(
+    dirs_outside: ArrayLike, n_outside: float, n_inside: float = 1.0
+) -> tuple[FloatArray, BoolArray]:
+    """Outside-medium directions (camera frame, pointing away from the camera) → lens-side rays.
+
+    The inverse of :func:`flat_port_refraction` (the window's index does not change directions).
+    Rays beyond the critical angle asin(n_in/n_out), or pointing behind the port, cannot reach the
+    lens: ``valid`` is False there and the direction returned is the port normal.
+    """
+    n_out = _check_index("n_outside", n_outside)
+    n_in = _check_index("n_inside", n_inside)
+    d = np.asarray(dirs_outside)
+    s_out2 = d[..., 0] ** 2 + d[..., 1] ** 2
+    s_in2 = (n_out / n_in) ** 2 * s_out2
+    valid = (d[..., 2] > 0.0) & (s_in2 < 1.0)
+    scale = np.where(valid, n_out / n_in, 0.0)
+    cos_in = np.where(valid, np.sqrt(np.maximum(1.0 - s_in2, 0.0)), 1.0)
+    out = np.stack([d[..., 0] * scale, d[..., 1] * scale, cos_in], axis=-1).astype(d.dtype)
+    return out, valid
+
+
+@dataclass(frozen=True, slots=True)
+class PortRays:
+    """Per-pixel rays outside the housing and the port's interface geometry (the Fresnel hook).
+
+    Attributes:
+        directions: (H, W, 3) outward directions in the outside medium (camera frame).
+        valid: (H, W) pixels that see the outside medium (camera's valid mask ∧ the port passes).
+        cos_inside: (H, W) cosine of the lens-side ray with the port normal (1 for a dome).
+        cos_glass: (H, W) cosine inside the window (1 for a dome).
+        cos_outside: (H, W) cosine in the outside medium (1 for a dome).
+        n_inside: Index of the housing gas.
+        n_glass: Index of the window.
+        n_outside: Index of the outside medium.
+        housing: ``"dome"`` or ``"flat"``.
+    """
+
+    directions: FloatArray
+    valid: BoolArray
+    cos_inside: FloatArray
+    cos_glass: FloatArray
+    cos_outside: FloatArray
+    n_inside: float
+    n_glass: float
+    n_outside: float
+    housing: Housing
+
+    def interfaces(self) -> tuple[tuple[float, float, FloatArray, FloatArray], ...]:
+        """The interfaces in the light's order, each ``(n_i, n_t, cos_i, cos_t)``.
+
+        For a flat port: outside→glass, then glass→housing gas. The renderer applies the Fresnel
+        transmission Mueller matrix (``sensors.polarimeter.surface``) and the n² radiance law for
+        each, in the plane-of-incidence basis ``stokes.meridian_reference(d, up=(0, 0, 1))`` (camera
+        frame; d = −direction). A dome is at normal incidence: no interfaces listed here.
+        """
+        if self.housing == "dome":
+            return ()
+        return (
+            (self.n_outside, self.n_glass, self.cos_outside, self.cos_glass),
+            (self.n_glass, self.n_inside, self.cos_glass, self.cos_inside),
+        )
+
+
+# --------------------------------------------------------------------------------------------------
+# Camera
+# --------------------------------------------------------------------------------------------------
+
+
+class Camera:
+    """Per-pixel geometry of one :class:`FisheyeSpec`, computed once and cached.
+
+    The per-pixel arrays are computed on first access (float64 internally, then stored as
+    ``dtype``: float32 by default, which keeps rays to ~1e-7 rad; use float64 where a test needs
+    1e-6-level angles). Vector arrays are (H, W, 3) views of planar (3, H, W) storage, so each
+    component is contiguous (fast for the sky evaluation, see :meth:`rotated_rays`).
+
+    Args:
+        spec: The camera specification.
+        dtype: Floating dtype of the cached arrays (float32 or float64).
+    """
+
+    def __init__(self, spec: FisheyeSpec, *, dtype: DTypeLike = np.float32) -> None:
+        self.spec = spec
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
+            raise ValueError(f"Camera dtype must be float32 or float64, got {self.dtype}")
+        self.width = spec.image_width
+        self.height = spec.image_height
+        self._radial = _RadialModel(spec)
+        c, d, e = spec.ocam_affine
+        self._affine = np.array([[c, d], [e, 1.0]])
+        self._affine_inv = np.linalg.inv(self._affine)
+        self._cu, self._cv = spec.principal_point_full_px
+        self._port_cache: dict[tuple[float, float], PortRays] = {}
+
+    # Scalars --------------------------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(H, W) of the frame."""
+        return (self.height, self.width)
+
+    @property
+    def theta_max(self) -> float:
+        """Half field of view (radians)."""
+        return self._radial.theta_max
+
+    @property
+    def image_circle_radius_px(self) -> float:
+        """Radius of the image circle θ = θ_max in (binned) pixels.
+
+        With a non-identity OCamCalib affine stretch this is the sensor-plane radius.
+        """
+        return self._radial.rho_max / self.spec.binning
+
+    # Pixel <-> ray --------------------------------------------------------------------------------
+    def _sensor_plane(self, u: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
+        b = self.spec.binning
+        du = b * np.asarray(u, dtype=np.float64) + (b - 1) / 2.0 - self._cu
+        dv = b * np.asarray(v, dtype=np.float64) + (b - 1) / 2.0 - self._cv
+        ai = self._affine_inv
+        return ai[0, 0] * du + ai[0, 1] * dv, ai[1, 0] * du + ai[1, 1] * dv
+
+    def _rays(self, u: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(planar rays (3, ...), θ, ρ) of image points, float64: the one back-projection path."""
+        xs, ys = self._sensor_plane(u, v)
+        rho = np.hypot(xs, ys)
+        theta = self._radial.theta_of_rho(rho)
+        if self.spec.projection == "perspective":
+            # Exactly the MOI paper's eq. 18 ray, (x, y, f) normalised, with no trig round trip.
+            f = self._radial.f_px
+            norm = np.sqrt(xs * xs + ys * ys + f * f)
+            return np.stack([xs / norm, -ys / norm, f / norm]), theta, rho
+        s = np.sin(theta)
+        inv = np.divide(s, rho, out=np.zeros_like(rho), where=rho > 0)
+        return np.stack([xs * inv, -ys * inv, np.cos(theta)]), theta, rho
+
+    def pixel_to_ray(self, u: ArrayLike, v: ArrayLike) -> tuple[FloatArray, BoolArray]:
+        """Unit rays (camera frame, float64) of image points (u, v) and whether they are valid.
+
+        Valid = inside the image circle θ ≤ θ_max. Beyond it the ray is extrapolated (clamped to
+        the radial model's monotone range) — finite, but not seen by the lens.
+        """
+        planar, theta, _ = self._rays(u, v)
+        return np.moveaxis(planar, 0, -1), theta <= self.theta_max + 1e-12
+
+    def project(self, dirs: ArrayLike) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """Image points (u, v) (float64, binned pixels) of camera-frame directions (lens side).
+
+        Works for any direction, also θ ≥ 90° off the axis (θ = atan2(√(x²+y²), z)); need not be
+        normalised. ``valid``: non-zero direction, θ ≤ θ_max and inside the frame
+        (−0.5 ≤ u ≤ W − 0.5, same for v). u and v are finite everywhere.
+        """
+        d = np.asarray(dirs, dtype=np.float64)
+        if d.shape[-1:] != (3,):
+            raise ValueError(f"project: dirs must have shape (..., 3), got {d.shape}")
+        rxy = np.hypot(d[..., 0], d[..., 1])
+        theta = np.arctan2(rxy, d[..., 2])
+        nonzero = (rxy > 0) | (d[..., 2] != 0)
+        rho = self._radial.rho_of_theta(theta)
+        scale = np.divide(rho, rxy, out=np.zeros_like(rho), where=rxy > 0)
+        xs = d[..., 0] * scale
+        ys = -d[..., 1] * scale
+        a = self._affine
+        b = self.spec.binning
+        u = (self._cu + a[0, 0] * xs + a[0, 1] * ys - (b - 1) / 2.0) / b
+        v = (self._cv + a[1, 0] * xs + a[1, 1] * ys - (b - 1) / 2.0) / b
+        valid = (
+            nonzero
+            & np.all(np.isfinite(d), axis=-1)
+            & (theta <= self.theta_max + 1e-12)
+            & (u >= -0.5)
+            & (u <= self.width - 0.5)
+            & (v >= -0.5)
+            & (v <= self.height - 0.5)
+        )
+        if self.spec.projection == "perspective":
+            valid &= theta < math.pi / 2
+        return np.nan_to_num(u), np.nan_to_num(v), valid
+
+    # Cached per-pixel arrays ----------------------------------------------------------------------
+    @cached_property
+    def _pixel_geometry(self) -> tuple[FloatArray, FloatArray, BoolArray, FloatArray]:
+        """(planar rays (3,H,W), θ, valid, solid angle), computed once."""
+        v, u = np.mgrid[0 : self.height, 0 : self.width].astype(np.float64)
+        planar, theta, rho = self._rays(u, v)
+        valid = theta <= self.theta_max + 1e-12
+        # dΩ = sinθ dθ dφ and dA' = ρ dρ dφ ⇒ dΩ/dA' = (sinθ/ρ)·dθ/dρ (→ (dθ/dρ)² on the axis);
+        # a binned pixel covers b² full-res px², the affine stretch divides by |det A|.
+        dtdr = self._radial.dtheta_drho(theta, rho)
+        sin_over_rho = np.divide(np.sin(theta), rho, out=dtdr.copy(), where=rho > 0)
+        area = self.spec.binning**2 / abs(np.linalg.det(self._affine))
+        solid = sin_over_rho * dtdr * area
+        return planar.astype(self.dtype), theta.astype(self.dtype), valid, solid.astype(self.dtype)
+
+    @property
+    def rays(self) -> FloatArray:
+        """(H, W, 3) unit rays of the pixel centres (camera frame, lens side)."""
+        return np.moveaxis(self._pixel_geometry[0], 0, -1)
+
+    @property
+    def rays_planar(self) -> FloatArray:
+        """(3, H, W) the same rays, component-major."""
+        return self._pixel_geometry[0]
+
+    @property
+    def theta(self) -> FloatArray:
+        """(H, W) angle of each pixel's ray off the optical axis (radians)."""
+        return self._pixel_geometry[1]
+
+    @property
+    def valid(self) -> BoolArray:
+        """(H, W) pixels inside the image circle θ ≤ θ_max."""
+        return self._pixel_geometry[2]
+
+    @property
+    def pixel_solid_angle_sr(self) -> FloatArray:
+        """(H, W) solid angle (sr, lens side) subtended by each (binned) pixel."""
+        return self._pixel_geometry[3]
+
+    @cached_property
+    def _sensor_reference_planar(self) -> FloatArray:
+        x, y, z = (c.astype(np.float64) for c in self._pixel_geometry[0])
+        return np.stack(_meridional_sensor_reference(x, y, z)).astype(self.dtype)
+
+    @cached_property
+    def _sensor_basis_flat(self) -> FloatArray:
+        """(6, H·W): the sensor x axis r_s = R_p x̂ and y axis t_s = p × r_s = R_p ŷ at each ray."""
+        r_s = self._sensor_reference_planar.astype(np.float64)
+        p = self._pixel_geometry[0].astype(np.float64)
+        t_s = np.cross(p, r_s, axis=0)
+        return np.concatenate([r_s, t_s]).reshape(6, -1).astype(self.dtype)
+
+    @property
+    def sensor_reference(self) -> FloatArray:
+        """(H, W, 3) per pixel, the 3-D axis ⊥ the ray that the lens maps onto the sensor's +x axis.
+
+        Meridional mapping (module docstring): R_p x̂ with R_p the rotation taking ẑ to the ray p.
+        A Stokes vector referenced to this axis, for light travelling along −ray, *is* the
+        sensor-plane Stokes vector (reference +x, propagation −z).
+        """
+        return np.moveaxis(self._sensor_reference_planar, 0, -1)
+
+    def rotated_rays(self, rotation: ArrayLike) -> FloatArray:
+        """(H, W, 3) rays expressed in another frame: ``rotation @ ray`` for every pixel.
+
+        ``rotation`` is a 3×3 rotation matrix, e.g. C_cam^n (camera → ENU world) for the world
+        directions the pixels look along. One BLAS product on the planar storage (no Python loop);
+        the result is again a view of planar storage.
+        """
+        r = np.asarray(rotation, dtype=np.float64)
+        if r.shape != (3, 3) or not np.all(np.isfinite(r)):
+            raise ValueError(f"rotation must be a finite 3x3 matrix, got shape {r.shape}")
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
+            raise ValueError("rotation must be orthonormal (R @ R.T == I within 1e-6)")
+        planar = self._pixel_geometry[0]
+        out = (r.astype(self.dtype) @ planar.reshape(3, -1)).reshape(planar.shape)
+        return np.moveaxis(out, 0, -1)
+
+    # Housing --------------------------------------------------------------------------------------
+    def outside(self, n_outside: float, n_inside: float = 1.0) -> PortRays:
+        """Per-pixel rays in the outside medium (index ``n_outside``) through the housing port.
+
+        Dome: the lens rays, unbent. Flat: :func:`flat_port_refraction` of the lens rays. Cached
+        per index pair.
+        """
+        n_out = _check_index("n_outside", n_outside)
+        n_in = _check_index("n_inside", n_inside)
+        key = (n_out, n_in)
+        if key not in self._port_cache:
+            ones = np.ones(self.shape, dtype=self.dtype)
+            if self.spec.housing == "dome":
+                rays = PortRays(self.rays, self.valid, ones, ones, ones, n_in, n_in, n_out, "dome")
+            else:
+                d, ok, ci, cg, co = flat_port_refraction(
+                    self.rays, n_out, self.spec.port_glass_index, n_in
+                )
+                rays = PortRays(
+                    d,
+                    ok & self.valid,
+                    ci.astype(self.dtype),
+                    cg.astype(self.dtype),
+                    co.astype(self.dtype),
+                    n_in,
+                    self.spec.port_glass_index,
+                    n_out,
+                    "flat",
+                )
+            self._port_cache[key] = rays
+        return self._port_cache[key]
+
+    def project_outside(
+        self, dirs: ArrayLike, n_outside: float, n_inside: float = 1.0
+    ) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """:meth:`project` for directions given in the outside medium (camera frame)."""
+        d = np.asarray(dirs, dtype=np.float64)
+        if self.spec.housing == "dome":
+            return self.project(d)
+        lens_side, ok = flat_port_inverse(d, n_outside, n_inside)
+        u, v, valid = self.project(lens_side)
+        return u, v, valid & ok
+
+    # Polarization onto the sensor -----------------------------------------------------------------
+    def to_sensor_stokes(
+        self, stokes: ArrayLike, ref: ArrayLike, rays: ArrayLike | None = None
+    ) -> FloatArray:
+        """Stokes vectors of the light entering the lens → sensor-plane Stokes vectors.
+
+        Args:
+            stokes: (..., 3) (I, Q, U) of the light arriving along −ray, relative to ``ref``.
+            ref: (..., 3) its reference axes, camera frame, perpendicular to the rays.
+            rays: (..., 3) camera-frame rays; default: every pixel's ray (then ``stokes`` is
+                (H, W, 3)).
+
+        Returns:
+            (..., 3) Stokes relative to ``SENSOR_REFERENCE`` (+x) for propagation
+            ``SENSOR_PROPAGATION`` (−z), by the spec's ``polarization_mapping``.
+        """
+        s = np.asarray(stokes)
+        r = np.asarray(ref)
+        if rays is None:
+            p = self.rays
+            meridional = self.spec.polarization_mapping == "meridional"
+            sens_ref = self.sensor_reference if meridional else None
+        else:
+            p = np.asarray(rays)
+            sens_ref = None
+        if s.shape[-1:] != (3,) or r.shape != s.shape or p.shape != s.shape:
+            raise ValueError(
+                f"to_sensor_stokes: stokes {s.shape}, ref {r.shape} and rays {p.shape} must all "
+                "be the same (..., 3) shape"
+            )
+        d = -p
+        if self.spec.polarization_mapping == "meridional":
+            if sens_ref is None:
+                sens_ref = np.stack(
+                    _meridional_sensor_reference(p[..., 0], p[..., 1], p[..., 2]), axis=-1
+                )
+            return stokes_mod.rotate_reference(s, d, r, sens_ref)
+        # Orthographic (MOI eqs. 22-23): project the E-vector on the sensor plane, keep I and DoP.
+        e = stokes_mod.to_evector(s, d, r)
+        ex, ey = e[..., 0], e[..., 1]
+        # ψ from +x about −z: e_img = cos ψ x̂ + sin ψ (−ŷ) ⇒ cos 2ψ ∝ ex² − ey², sin 2ψ ∝ −2 ex ey.
+        n2 = ex * ex + ey * ey
+        c2 = np.divide(ex * ex - ey * ey, n2, out=np.zeros_like(n2), where=n2 > 0)
+        s2 = np.divide(-2.0 * ex * ey, n2, out=np.zeros_like(n2), where=n2 > 0)
+        lin = np.hypot(s[..., 1], s[..., 2])
+        return np.stack([s[..., 0], lin * c2, lin * s2], axis=-1)
+
+    def sensor_stokes_from_meridian(
+        self, stokes: ArrayLike, rotation: ArrayLike, out: FloatArray | None = None
+    ) -> FloatArray:
+        """Sensor-plane Stokes for the whole frame from ENU-meridian-referenced Stokes (fast path).
+
+        The common case of the renderer: ``stokes`` (H, W, 3) of the light reaching each pixel
+        along −(C · ray), referenced to the ENU local meridian of that direction — what
+        :func:`sensors.polarimeter.sky.sky_radiance` returns for ``dirs=camera.rays,
+        rotation=C``, and what a flat sea surface or a dome keeps. Same result as
+        :meth:`to_sensor_stokes` with that reference, for the meridional mapping, without building
+        any reference vectors: with up_c = Cᵀẑ (the world vertical in the camera frame) and the
+        cached sensor axes r_s, t_s = p × r_s of each pixel, the meridian reference m satisfies
+        m·r_s ∝ up_c·r_s and (m × r_s)·d ∝ up_c·t_s (d = −p), so the reference rotation χ has
+        (cos χ, sin χ) ∝ (up_c·r_s, up_c·t_s): two dot products a pixel, no trigonometry.
+        At the exact world zenith (up_c ∥ p) the chain's North reference is used.
+
+        Args:
+            stokes: (H, W, 3) meridian-referenced Stokes.
+            rotation: C_cam^n, camera → ENU (3×3 rotation).
+            out: Optional planar (3, H, W) buffer of the camera dtype to fill (reuse per frame).
+
+        Returns:
+            (H, W, 3) sensor-plane Stokes (reference ``SENSOR_REFERENCE``), a view of planar
+            storage.
+        """
+        c = np.asarray(rotation, dtype=np.float64)
+        if c.shape != (3, 3) or not np.allclose(c @ c.T, np.eye(3), atol=1e-6):
+            raise ValueError("rotation must be an orthonormal 3x3 matrix (C_cam^n)")
+        s = np.asarray(stokes)
+        if s.shape != (*self.shape, 3):
+            raise ValueError(f"stokes must have shape {(*self.shape, 3)}, got {s.shape}")
+        if self.spec.polarization_mapping != "meridional":
+            ref = _meridian_reference_in_camera(self.rays.astype(np.float64), c)
+            return self.to_sensor_stokes(s, ref.astype(s.dtype))
+        n = self.height * self.width
+        flat = s.reshape(n, 3)
+        dtype = self.dtype
+        res = np.empty((3, n), dtype=dtype) if out is None else out.reshape(3, n)
+        if res.shape != (3, n) or res.dtype != dtype:
+            raise ValueError(f"out must be a {dtype} array of shape {(3, *self.shape)}")
+        basis = self._sensor_basis_flat
+        # Rows: (up·r_s, up·t_s), then the same with North for the zenith fallback.
+        proj = np.zeros((4, 6), dtype=dtype)
+        proj[0, :3] = proj[1, 3:] = c[2]
+        proj[2, :3] = proj[3, 3:] = c[1]
+        for i0 in range(0, n, _CHUNK):
+            i1 = min(i0 + _CHUNK, n)
+            cs = proj[:2] @ basis[:, i0:i1]  # (cos χ, sin χ) · |horizontal part of up|
+            cc, ss = cs[0], cs[1]
+            n2 = cc * cc + ss * ss
+            zen = np.flatnonzero(n2 == 0.0)
+            if zen.size:
+                north = proj[2:] @ basis[:, i0 + zen]
+                cc[zen], ss[zen] = north[0], north[1]
+                n2[zen] = 1.0
+            c2 = (cc * cc - ss * ss) / n2  # cos 2χ
+            s2 = 2.0 * cc * ss / n2  # sin 2χ
+            q, u = flat[i0:i1, 1], flat[i0:i1, 2]
+            res[0, i0:i1] = flat[i0:i1, 0]
+            res[1, i0:i1] = c2 * q + s2 * u  # stokes.rotate_reference: (Q, U) turn by −2χ
+            res[2, i0:i1] = c2 * u - s2 * q
+        return np.moveaxis(res.reshape(3, *self.shape), 0, -1)
+
+
+def _meridian_reference_in_camera(rays: FloatArray, c: NDArray[np.float64]) -> FloatArray:
+    """ENU local-meridian references (North at the zenith) of camera rays, in the camera frame."""
+    w = rays @ c.T
+    rho = np.hypot(w[..., 0], w[..., 1])
+    zen = rho == 0.0
+    inv = 1.0 / np.where(zen, 1.0, rho)
+    ref = np.stack([-w[..., 2] * w[..., 0] * inv, -w[..., 2] * w[..., 1] * inv, rho], axis=-1)
+    ref[zen] = (0.0, 1.0, 0.0)
+    return ref @ c
+
+
+_CHUNK = 16384
+
+
+def _meridional_sensor_reference(
+    x: FloatArray, y: FloatArray, z: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """R_p x̂ for rays p = (x, y, z): Rodrigues' rotation taking ẑ to p (defined for z > −1)."""
+    inv = 1.0 / np.maximum(1.0 + z, 1e-12)
+    return 1.0 - x * x * inv, -x * y * inv, -x
