@@ -12,6 +12,7 @@ checked only on fields that passed their own checks, so one mistake gives one er
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
@@ -28,6 +29,7 @@ from scenarios.schema import (
     JERLOV_TYPES,
     MISSION_KINDS,
     SCENES,
+    SKY_POLARIZATION_MODELS,
     TANK_FLOOR_DEPTH_M,
     TANK_LENGTH_M,
     TANK_MAX_DEPTH_M,
@@ -40,6 +42,7 @@ from scenarios.schema import (
     Leg,
     LegsMission,
     Mission,
+    Optics,
     OverrideValue,
     Place,
     ProfilePoint,
@@ -171,6 +174,13 @@ CAMERA_RATE_HZ = Range(0.0, 30.0, lo_open=True)
 CAMERA_WIDTH = Range(16, 1920)
 CAMERA_HEIGHT = Range(16, 1080)
 LANES = Range(1)
+CIE_SKY_TYPE = Range(1, 15)
+UNIT_INTERVAL = Range(0.0, 1.0)
+BERRY_DELTA_DEG = Range(0.0, 60.0)
+ZENITH_RADIANCE = Range(0.0, 10.0, lo_open=True)
+TURBIDITY = Range(0.0, 50.0, lo_open=True)
+WIND_SPEED_MPS = Range(0.0, 30.0)
+WAVELENGTH_NM = Range(400.0, 700.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
 TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
 TANK_NORTH_M = Range(-TANK_WIDTH_M / 2, TANK_WIDTH_M / 2, lo_open=True, hi_open=True)
@@ -817,9 +827,37 @@ def _sensors(t: _Table | None) -> Sensors | None:
         depth=t.string("depth", non_empty=True, default="ms5837_30ba"),
         imu_overrides=_overrides(t.table("imu_overrides")),
         depth_overrides=_overrides(t.table("depth_overrides")),
+        # "" stands for "no polarimeter" here: _build treats None as a failed check.
+        polarimeter=t.string("polarimeter", non_empty=True, default=""),
+        polarimeter_overrides=_overrides(t.table("polarimeter_overrides")),
     )
     t.finish()
+    if sensors is not None and sensors.polarimeter == "":
+        sensors = dataclasses.replace(sensors, polarimeter=None)
     return sensors
+
+
+def _optics(t: _Table | None) -> Optics | None:
+    if t is None:
+        return None
+    optics = _build(
+        Optics,
+        cie_sky_type=t.integer("cie_sky_type", CIE_SKY_TYPE, default=12),
+        sky_polarization=t.string(
+            "sky_polarization", choices=SKY_POLARIZATION_MODELS, default="rayleigh"
+        ),
+        dop_max=t.number("dop_max", UNIT_INTERVAL, default=0.75),
+        berry_delta_deg=t.number("berry_delta_deg", BERRY_DELTA_DEG, default=30.0),
+        zenith_radiance_w_m2_sr_nm=t.number(
+            "zenith_radiance_w_m2_sr_nm", ZENITH_RADIANCE, default=0.05
+        ),
+        turbidity=t.number("turbidity", TURBIDITY, default=1.0),
+        wind_speed_mps=t.number("wind_speed_mps", WIND_SPEED_MPS, default=0.0),
+        wind_toward_deg=t.number("wind_toward_deg", COMPASS_DEG, default=0.0),
+        wavelength_nm=t.number("wavelength_nm", WAVELENGTH_NM, default=500.0),
+    )
+    t.finish()
+    return optics
 
 
 def _autopilot(t: _Table | None) -> Autopilot | None:
@@ -844,6 +882,7 @@ def _recording(t: _Table | None) -> Recording | None:
         camera_rate_hz=t.number("camera_rate_hz", CAMERA_RATE_HZ, default=1.0),
         camera_width=t.integer("camera_width", CAMERA_WIDTH, default=320),
         camera_height=t.integer("camera_height", CAMERA_HEIGHT, default=240),
+        polarimeter_log_rate_hz=t.number("polarimeter_log_rate_hz", CAMERA_RATE_HZ, default=1.0),
     )
     t.finish()
     return recording
@@ -962,6 +1001,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         )
     )
     sensors = _sensors(top.table("sensors"))
+    optics = _optics(top.table("optics"))
     autopilot = _autopilot(top.table("autopilot"))
     recording = _recording(top.table("recording"))
     top.finish()
@@ -982,6 +1022,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         current=current,
         initial=initial,
         sensors=sensors,
+        optics=optics,
         autopilot=autopilot,
         recording=recording,
     )

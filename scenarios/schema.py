@@ -291,6 +291,41 @@ class Sensors:
     depth: str = "ms5837_30ba"
     imu_overrides: tuple[tuple[str, OverrideValue], ...] = ()
     depth_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+    # The skylight polarization camera: a preset name, or None for a trial without one (it is
+    # the expensive sensor; trials about the vehicle alone run faster without it).
+    polarimeter: str | None = None
+    polarimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+
+
+SKY_POLARIZATION_MODELS: tuple[str, ...] = ("rayleigh", "berry")
+
+
+@dataclass(frozen=True, slots=True)
+class Optics:
+    """The sky and the sea surface as the polarimeter sees them (water itself: :class:`Water`).
+
+    Attributes:
+        cie_sky_type: CIE standard general sky type, 1 (overcast) ... 15; 12 = clear, low
+            turbidity (ISO 15469).
+        sky_polarization: "rayleigh" (single scattering) or "berry" (four neutral points).
+        dop_max: Maximum degree of polarization of the sky.
+        berry_delta_deg: Berry model: angular separation of the Babinet and Brewster points.
+        zenith_radiance_w_m2_sr_nm: Absolute zenith sky radiance at ``wavelength_nm``.
+        turbidity: Multiplier on the water type's particle scattering (1 = the Jerlov type).
+        wind_speed_mps: Wind speed at 12.5 m for Cox–Munk surface slopes; 0 = flat surface.
+        wind_toward_deg: Compass direction the wind blows toward.
+        wavelength_nm: The one wavelength the optics are evaluated at.
+    """
+
+    cie_sky_type: int = 12
+    sky_polarization: str = "rayleigh"
+    dop_max: float = 0.75
+    berry_delta_deg: float = 30.0
+    zenith_radiance_w_m2_sr_nm: float = 0.05
+    turbidity: float = 1.0
+    wind_speed_mps: float = 0.0
+    wind_toward_deg: float = 0.0
+    wavelength_nm: float = 500.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,6 +348,8 @@ class Recording:
     camera_rate_hz: float = 1.0
     camera_width: int = 320
     camera_height: int = 240
+    # Polarimeter images (intensity, AoP, DoP) logged at most this often; frames are large.
+    polarimeter_log_rate_hz: float = 1.0
 
 
 # ---- the scenario ------------------------------------------------------------------------------
@@ -334,6 +371,7 @@ class Scenario:
     current: Current = field(default_factory=Current)
     initial: Initial = field(default_factory=Initial)
     sensors: Sensors = field(default_factory=Sensors)
+    optics: Optics = field(default_factory=Optics)
     autopilot: Autopilot = field(default_factory=Autopilot)
     recording: Recording = field(default_factory=Recording)
 
@@ -379,7 +417,18 @@ class Scenario:
                 "depth": self.sensors.depth,
                 "imu_overrides": {k: _plain(v) for k, v in self.sensors.imu_overrides},
                 "depth_overrides": {k: _plain(v) for k, v in self.sensors.depth_overrides},
+                **(
+                    {
+                        "polarimeter": self.sensors.polarimeter,
+                        "polarimeter_overrides": {
+                            k: _plain(v) for k, v in self.sensors.polarimeter_overrides
+                        },
+                    }
+                    if self.sensors.polarimeter is not None
+                    else {}
+                ),
             },
+            "optics": _plain(self.optics),
             "autopilot": _plain(self.autopilot),
             "recording": _plain(self.recording),
         }

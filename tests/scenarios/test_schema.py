@@ -639,3 +639,37 @@ def test_current_mean_velocity() -> None:
     e, n = wrap.mean_velocity_en(5.0)
     assert e == pytest.approx(0.0, abs=1e-12)
     assert n == pytest.approx(math.cos(math.radians(10.0)))
+
+
+def test_optics_and_polarimeter_settings_validate_and_round_trip() -> None:
+    d = load("default").to_dict()
+    d["sensors"]["polarimeter"] = "phx050s_p"
+    d["sensors"]["polarimeter_overrides"] = {"rate_hz": 2}
+    d["optics"].update(cie_sky_type=3, sky_polarization="berry", turbidity=4.0, wind_speed_mps=5.0)
+    s = parse_scenario(d)
+    assert s.sensors.polarimeter == "phx050s_p"
+    assert s.optics.sky_polarization == "berry" and s.optics.turbidity == 4.0
+    assert parse_scenario(s.to_dict()) == s
+    # Without a polarimeter the key is absent (TOML has no null) and reads back as None.
+    assert "polarimeter" not in load("default").to_dict()["sensors"]
+    assert load("default").sensors.polarimeter is None
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "field"),
+    [
+        ("cie_sky_type", 0, "optics.cie_sky_type"),
+        ("sky_polarization", "mie", "optics.sky_polarization"),
+        ("dop_max", 1.5, "optics.dop_max"),
+        ("turbidity", -1.0, "optics.turbidity"),
+        ("wind_speed_mps", 40.0, "optics.wind_speed_mps"),
+        ("wavelength_nm", 1000.0, "optics.wavelength_nm"),
+        ("haze", 1.0, "optics.haze"),
+    ],
+)
+def test_bad_optics_name_the_field(key: str, value: object, field: str) -> None:
+    d = load("default").to_dict()
+    d["optics"][key] = value
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(d)
+    assert field in str(info.value)
