@@ -151,9 +151,10 @@ class Plant:
         self._ma_b_tuple = tuple(float(x) for x in self._ma_b_diag)
         self._rhs_b = np.zeros(6)
         self._r_m, self._r_n = earth.principal_radii(self._lat0)
-        self.reset()
+        # (M_RB + M_A)^-1 in body coordinates is constant (tests/test_plant.py checks it).
+        mujoco.mj_forward(self.model, self.data)
         self._minv_total_b = np.linalg.inv(self.rigid_mass_matrix_b() + np.diag(self._ma_b_diag))
-        self._sync()
+        self.reset()
 
     # ---- WorldView ---------------------------------------------------------------------------
     @property
@@ -236,8 +237,7 @@ class Plant:
         self.data.ctrl[self._act_ids[2]] = rps
         self.limiter.reset((0.0, 0.0, rps))
         mujoco.mj_forward(self.model, self.data)
-        if hasattr(self, "_minv_total_b"):
-            self._sync()
+        self._sync()
 
     @staticmethod
     def _rotation_from_quat(q: np.ndarray) -> np.ndarray:
