@@ -55,6 +55,7 @@ def test_tank_trial_completes_and_writes_recording_and_metrics(tank_run) -> None
     on_disk = json.loads((out / "metrics.json").read_text())
     assert on_disk == json.loads(json.dumps(metrics, default=str))
     assert metrics["complete"] is True
+    assert scenarios.parse_scenario(metrics["scenario_config"]) == scenarios.load("tank")
     assert metrics["mission"]["legs_completed"] == metrics["mission"]["legs_total"] == 1
     assert metrics["status"] == "mission_complete"
     assert metrics["mujoco_warnings"] == 0

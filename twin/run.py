@@ -106,6 +106,18 @@ class ChaseCamera:
             self._renderer = None
 
 
+def _versions() -> dict[str, str]:
+    from importlib import metadata
+
+    out = {"mujoco": mujoco.__version__, "numpy": np.__version__}
+    for dist in ("auv-twin", "rerun-sdk"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:  # running from a source tree without install
+            out[dist] = "unknown"
+    return out
+
+
 def _progress(total_s: float, enabled: bool):
     if not enabled:
         return None
@@ -148,7 +160,9 @@ def run_scenario(
         "complete": False,
         "status": "running",
         "recording": "recording.rrd",
-        "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
+        "versions": _versions(),
+        # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
+        "scenario_config": scenario.to_dict(),
     }
     _write_json_atomic(metrics_path, base)
 
@@ -234,6 +248,7 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
     status = GuidanceStatus(0, 0, False, 0.0)
     complete_at: float | None = None
     leg_started_at = 0.0
+    next_pol_log_t = 0.0
     readings_count = stats.readings
 
     for k in range(n_steps):
@@ -270,6 +285,9 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
         for reading in suite.poll(plant):
             rec.log_reading(reading)
             readings_count[reading.sensor] = readings_count.get(reading.sensor, 0) + 1
+            if reading.sensor == "polarimeter" and reading.t >= next_pol_log_t:
+                _log_polarimeter(rec, reading)
+                next_pol_log_t = reading.t + 1.0 / sc.recording.polarimeter_log_rate_hz - 1e-9
         if (k + 1) % every_truth == 0:
             truth = plant.truth()
             rec.log_truth(
@@ -291,6 +309,17 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
         if complete_at is not None and plant.t - complete_at >= _MISSION_COMPLETE_TAIL_S:
             return "mission_complete"
     return "duration_reached"
+
+
+def _log_polarimeter(rec: Recorder, reading) -> None:
+    """Intensity, AoP (cyclic colormap) and DoP images of a frame, as onboard code derives them."""
+    from sensors.polarimeter import images
+    from twin.onboard.polarization import stokes_from_mosaic
+
+    pol = stokes_from_mosaic(reading["raw"])
+    rec.log_image("/polarimeter/intensity", reading.t, images.intensity_image(pol.s0))
+    rec.log_image("/polarimeter/aop", reading.t, images.aop_image(pol.aop, pol.dop))
+    rec.log_image("/polarimeter/dop", reading.t, images.dop_image(pol.dop))
 
 
 def _accumulate(
