@@ -12,7 +12,7 @@ _REGISTRY: dict[str, type[Sensor]] = {}
 
 # Modules that hold the built-in sensors; imported lazily so that importing the registry is cheap
 # and a sensor with heavy dependencies costs nothing until it is used.
-_BUILTIN_MODULES = ("sensors.imu", "sensors.depth")
+_BUILTIN_MODULES = ("sensors.imu", "sensors.depth", "sensors.polarimeter.render")
 
 
 def register(cls: type[Sensor]) -> type[Sensor]:

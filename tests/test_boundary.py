@@ -18,7 +18,8 @@ def _imports(path: Path) -> list[str]:
         if isinstance(node, ast.Import):
             out += [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            out.append(node.module)
+            # `from twin import earth` imports twin.earth: judge each imported name.
+            out += [f"{node.module}.{a.name}" for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.level > 0:
             out.append("." * node.level + (node.module or ""))
     return out

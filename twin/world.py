@@ -13,6 +13,8 @@ import numpy as np
 
 import sensors
 from scenarios.schema import Scenario
+from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
 from twin.autopilot import Autopilot
 from twin.current import Current, CurrentProfilePoint
@@ -43,6 +45,25 @@ class World:
     def physics_dt(self) -> float:
         return float(self.plant.model.opt.timestep)
 
+    def fly(self, until_s: float) -> None:
+        """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.
+
+        The sensors are not sampled on the way: this is for getting somewhere (``auv-twin
+        render``), not for recording (``twin.run``).
+        """
+        sc = self.scenario
+        dt = self.physics_dt
+        every = max(1, round(1.0 / (sc.autopilot.rate_hz * dt)))
+        cmd = None
+        k = 0
+        while self.plant.t < until_s - 0.5 * dt:
+            if cmd is None or k % every == 0:
+                nav = self.nav.nav_state()
+                sp, _ = self.guidance.update(nav, self.plant.t)
+                cmd = self.autopilot.update(nav, sp, every * dt)
+            self.plant.step(cmd)
+            k += 1
+
 
 def _current(scenario: Scenario, rng: np.random.Generator) -> Current:
     c = scenario.current
@@ -65,6 +86,40 @@ def _sensor(kind: str, preset: str, overrides: tuple[tuple[str, object], ...]) -
         )
     except (KeyError, ValueError, TypeError) as exc:
         raise ValueError(f"sensors.{kind}: {exc}") from exc
+
+
+def optics_config(scenario: Scenario) -> OpticsConfig:
+    """The polarimeter's OpticsConfig from the scenario's [optics] and [water] tables."""
+    o, w = scenario.optics, scenario.water
+    sky = SkySpec(
+        cie_type=o.cie_sky_type,
+        polarization=o.sky_polarization,
+        dop_max=o.dop_max,
+        berry_delta_rad=math.radians(o.berry_delta_deg),
+        zenith_radiance=o.zenith_radiance_w_m2_sr_nm,
+        wavelength_nm=o.wavelength_nm,
+    )
+    return OpticsConfig(
+        sky=sky,
+        jerlov_type=w.jerlov_type,
+        turbidity=o.turbidity,
+        salinity_psu=w.salinity_psu,
+        temperature_c=w.temperature_c,
+        wavelength_nm=o.wavelength_nm,
+        wind_speed_mps=o.wind_speed_mps,
+        wind_toward_deg=o.wind_toward_deg,
+    )
+
+
+def polarimeter_sensor(scenario: Scenario, preset: str | None = None) -> sensors.Sensor:
+    """The scenario's polarimeter (or one from ``preset``), configured with its optics."""
+    s = scenario.sensors
+    name = preset or s.polarimeter
+    if name is None:
+        raise ValueError("sensors.polarimeter: the scenario has no polarimeter")
+    cam = _sensor("polarimeter", name, s.polarimeter_overrides if preset is None else ())
+    cam.configure(optics_config(scenario))
+    return cam
 
 
 def build_world(scenario: Scenario, seed: int | None = None) -> World:
@@ -94,13 +149,14 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
         forward_speed_mps=ini.speed_mps,
     )
     s = scenario.sensors
-    suite = SensorSuite(
-        [
-            _sensor("imu", s.imu, s.imu_overrides),
-            _sensor("depth", s.depth, s.depth_overrides),
-        ],
-        seed=children[SEED_SENSORS],
-    )
+    # Sensor order fixes each one's random stream (SensorSuite): append, never insert.
+    suite_sensors = [
+        _sensor("imu", s.imu, s.imu_overrides),
+        _sensor("depth", s.depth, s.depth_overrides),
+    ]
+    if s.polarimeter is not None:
+        suite_sensors.append(polarimeter_sensor(scenario))
+    suite = SensorSuite(suite_sensors, seed=children[SEED_SENSORS])
     suite.reset(plant)
     if scenario.autopilot.attitude_source != "truth":
         raise NotImplementedError(

@@ -122,6 +122,7 @@ def test_interpolate_matches_superpixel_on_a_uniform_field_and_has_full_resoluti
 # --- agreement with polanalyser (test-only oracle) -----------------------------------------------
 def test_superpixel_equals_polanalyser_calcstokes_on_the_four_sub_images():
     import polanalyser as pa  # a declared test dependency: fail, never skip
+
     rng = np.random.default_rng(6)
     raw = rng.integers(0, 4096, size=(64, 80)).astype(np.uint16)
     img = stokes_from_mosaic(raw)
@@ -144,6 +145,7 @@ def test_interpolate_agrees_with_polanalyser_demosaicing(field):
     channel to an integer (≤ ½ DN), S0 = ½ΣI and S1 = I0 − I90 then differ by ≤ 1 DN. The outer
     2 pixels differ: OpenCV's Bayer conversion fills its border differently (we mirror)."""
     import polanalyser as pa  # a declared test dependency: fail, never skip
+
     h, w = 96, 128
     if field == "smooth":
         raw = np.rint(_mosaic_from_stokes(_smooth_stokes(h, w))).astype(np.uint16)

@@ -1,0 +1,71 @@
+"""Pictures of a polarimeter frame: intensity, AoP (cyclic colour map) and DoP, for people.
+
+Used by ``auv-twin render`` (PNG files) and the Rerun recorder (images). The AoP map is OpenCV's
+``TWILIGHT_SHIFTED``, a cyclic map, so that −90° and +90° (the same E-vector) get the same colour;
+DoP uses ``VIRIDIS`` on [0, 1]; intensity is S0 scaled to its 99.5th percentile (the sun disc
+saturates anyway) with a 1/2.2 gamma.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.onboard.polarization import PolarizationImage
+
+
+def intensity_u8(s0: NDArray[np.floating], *, percentile: float = 99.5) -> NDArray[np.uint8]:
+    """S0 as an 8-bit grey image (percentile-scaled, gamma 1/2.2); a dark frame stays black."""
+    s = np.asarray(s0, dtype=np.float32)
+    top = float(np.percentile(s, percentile)) if s.size else 0.0
+    if not (math.isfinite(top) and top > 0):
+        return np.zeros(s.shape, dtype=np.uint8)
+    x = np.clip(s / top, 0.0, 1.0) ** (1.0 / 2.2)
+    return (x * 255.0 + 0.5).astype(np.uint8)
+
+
+def aop_rgb(aop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
+    """AoP in [−π/2, π/2) as RGB with a cyclic map; masked-out pixels black."""
+    a = np.asarray(aop, dtype=np.float32)
+    idx = np.clip((a + math.pi / 2) / math.pi * 255.0, 0, 255).astype(np.uint8)
+    rgb = cv2.cvtColor(cv2.applyColorMap(idx, cv2.COLORMAP_TWILIGHT_SHIFTED), cv2.COLOR_BGR2RGB)
+    if mask is not None:
+        rgb[~mask] = 0
+    return rgb
+
+
+def dop_rgb(dop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
+    """DoP in [0, 1] as RGB (viridis); masked-out pixels black."""
+    idx = np.clip(np.asarray(dop, dtype=np.float32) * 255.0, 0, 255).astype(np.uint8)
+    rgb = cv2.cvtColor(cv2.applyColorMap(idx, cv2.COLORMAP_VIRIDIS), cv2.COLOR_BGR2RGB)
+    if mask is not None:
+        rgb[~mask] = 0
+    return rgb
+
+
+def signal_mask(pol: PolarizationImage, min_s0: float = 20.0) -> NDArray[np.bool_]:
+    """Pixels bright enough for their AoP/DoP to mean something (S0 above ``min_s0`` DN)."""
+    return np.asarray(pol.s0) > min_s0
+
+
+def write_pngs(pol: PolarizationImage, out_dir: Path | str, stem: str) -> list[Path]:
+    """Write ``{stem}_intensity.png``, ``_aop.png`` and ``_dop.png``; return the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    mask = signal_mask(pol)
+    images = {
+        "intensity": intensity_u8(pol.s0),
+        "aop": cv2.cvtColor(aop_rgb(pol.aop, mask), cv2.COLOR_RGB2BGR),
+        "dop": cv2.cvtColor(dop_rgb(pol.dop, mask), cv2.COLOR_RGB2BGR),
+    }
+    paths = []
+    for kind, img in images.items():
+        p = out / f"{stem}_{kind}.png"
+        if not cv2.imwrite(str(p), img):
+            raise OSError(f"could not write {p}")
+        paths.append(p)
+    return paths

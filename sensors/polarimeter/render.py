@@ -1,0 +1,562 @@
+"""The polarimeter sensor plugin: the whole physics chain from the vehicle's pose to a raw frame.
+
+Per frame (``Polarimeter.sample``), from the true pose of the ``polarimeter`` site, the UTC and the
+place (:class:`sensors.base.WorldView`):
+
+1. camera rays (cached), rotated into ENU by the site attitude C_c^n; through the housing port
+   (dome: unbent; flat: Snell and Fresnel twice);
+2. the sun (NREL SPA, :class:`~sensors.polarimeter.sun.SunTracker`);
+3. below the surface: the sea surface (:mod:`~sensors.polarimeter.surface`: Snell, Fresnel Mueller,
+   optional Cox–Munk waves) maps each in-water ray to the sky direction it sees; the sky
+   (:mod:`~sensors.polarimeter.sky`) is evaluated there and transmitted; the water column
+   (:mod:`~sensors.polarimeter.water`) attenuates it and adds single- and multiple-scattered light.
+   Above the surface (a camera in air, depth ≤ 0): the sky directly, nothing below the horizon;
+4. occlusion: the rays are cast against the MuJoCo scene (``mujoco.mj_multiRay``) on a coarse grid
+   (every ``occlusion_stride_px``-th pixel, nearest-neighbour upsampled); a blocked pixel keeps
+   only the scattered light (no direct sky);
+5. radiance (W m⁻² sr⁻¹ nm⁻¹ × the passband) → photons per pixel per second (the camera equation,
+   :func:`~sensors.polarimeter.mosaic.photon_rate_per_pixel`), polarization carried onto the
+   sensor plane by the lens (``Camera.sensor_stokes_from_meridian``);
+6. the DoFP sensor (:class:`~sensors.polarimeter.mosaic.DoFPSensor`): analysers, fixed pattern,
+   exposure, shot/read/dark noise, ADC → the raw uint16 mosaic.
+
+The reading has channels ``raw`` (uint16 mosaic) and ``exposure_us``. Truth layers (the true
+sensor-plane Stokes in photons/s, the sun's pixel, Snell's window mask, the occlusion mask) are
+kept in :attr:`Polarimeter.truth` — the truth channel, for the recorder and tests; onboard code
+never sees them.
+
+Limits: one wavelength stands for the passband; no lens vignetting or relative illumination; the
+occlusion grid is coarse (edges of occluders are ±stride/2 pixels); waves refract the sky light
+only (the sun beam below the surface assumes a flat sea, see ``water.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, ClassVar, Literal
+
+import dm_env
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from sensors.base import Sensor, SensorSpec, WorldView
+from sensors.polarimeter import camera as camera_mod
+from sensors.polarimeter import mosaic as mosaic_mod
+from sensors.polarimeter import stokes as stokes_mod
+from sensors.polarimeter import surface as surface_mod
+from sensors.polarimeter import water as water_mod
+from sensors.polarimeter.sky import SkySpec, sky_radiance
+from sensors.polarimeter.sun import SunTracker
+from sensors.registry import register
+
+FloatArray = NDArray[np.floating]
+
+
+@dataclass(frozen=True, slots=True)
+class OpticsConfig:
+    """The world's optics the polarimeter looks through (scenario tables [optics] and [water]).
+
+    Attributes:
+        sky: Sky radiance and polarization model.
+        jerlov_type: Jerlov water type (``water.JERLOV_TYPES``).
+        turbidity: Multiplier on the type's particle scattering (1 = the type itself).
+        salinity_psu: Salinity, for the refractive index (Quan & Fry).
+        temperature_c: Water temperature, for the refractive index.
+        wavelength_nm: The one wavelength of the optics.
+        wind_speed_mps: Wind at 12.5 m for Cox–Munk slopes; 0 = a flat sea.
+        wind_toward_deg: Compass direction the wind blows toward.
+        scattering: Multiple-scattering model constants (default ``water.ScatteringModel()``).
+    """
+
+    sky: SkySpec = dataclasses.field(default_factory=SkySpec)
+    jerlov_type: str = "II"
+    turbidity: float = 1.0
+    salinity_psu: float = 35.0
+    temperature_c: float = 15.0
+    wavelength_nm: float = 500.0
+    wind_speed_mps: float = 0.0
+    wind_toward_deg: float = 0.0
+    scattering: water_mod.ScatteringModel | None = None
+
+    def __post_init__(self) -> None:
+        if self.jerlov_type not in water_mod.JERLOV_TYPES:
+            raise ValueError(
+                f"OpticsConfig.jerlov_type: {self.jerlov_type!r}; allowed: {water_mod.JERLOV_TYPES}"
+            )
+        if not (math.isfinite(self.wind_toward_deg)):
+            raise ValueError(
+                f"OpticsConfig.wind_toward_deg: {self.wind_toward_deg!r}; allowed: finite"
+            )
+        # The stage constructors validate the rest (turbidity, index ranges, wind speed).
+        water_mod.jerlov_water(self.jerlov_type, self.turbidity)
+        surface_mod.water_index(self.salinity_psu, self.temperature_c, self.wavelength_nm)
+        surface_mod.cox_munk_variances(self.wind_speed_mps)
+
+    @property
+    def water_index(self) -> float:
+        return float(
+            surface_mod.water_index(self.salinity_psu, self.temperature_c, self.wavelength_nm)
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class PolarimeterSpec(SensorSpec):
+    """A polarization camera: lens + housing, DoFP sensor, and how the twin renders it.
+
+    Attributes:
+        rate_hz: Frame rate (Hz). The seeds' cameras ran at 10 Hz.
+        delay_s: Readout + transfer latency (s).
+        camera: Lens/geometry preset (``camera.PRESETS``).
+        sensor: DoFP sensor preset (``mosaic.PRESETS``).
+        binning: On-sensor same-orientation binning 1, 2 or 4 (2448×2048 → 612×512 at 4).
+        housing: ``"dome"`` or ``"flat"`` port.
+        f_number: Working f-number of the lens (FE185C057HA-1: F1.4–F16; F2.8 by default
+            [uncertain: the seeds do not state the aperture]).
+        passband_nm: Effective spectral width the one-wavelength radiance stands for (nm):
+            mono IMX250MZR with no filter, weighted by water's transmission, ~100 nm [uncertain].
+        lens_transmission: Lens (and dome) throughput in (0, 1].
+        exposure_us: Fixed exposure (µs); None = the sensor preset's.
+        auto_exposure: Override the sensor preset's auto exposure; None = the preset's.
+        occlusion: Cast rays against the MuJoCo scene (vehicle fins, a ship's hull, a pier).
+        occlusion_stride_px: Cast every n-th pixel (in both axes) and upsample.
+        occlusion_geomgroups: MJCF geom groups that occlude (visual groups 0–2 by default; the
+            sensor-site group 5 and any collision-only group are excluded).
+        psf: See the solar disc through a ~1-pixel Gaussian PSF (keeps its energy on the grid).
+    """
+
+    rate_hz: float = 10.0
+    delay_s: float = 0.0
+    camera: str = "phx050s_fe185"
+    sensor: str = "phx050s_p"
+    binning: int = 1
+    housing: Literal["dome", "flat"] = "dome"
+    f_number: float = 2.8
+    passband_nm: float = 100.0
+    lens_transmission: float = 0.9
+    exposure_us: float | None = None
+    auto_exposure: bool | None = None
+    occlusion: bool = True
+    occlusion_stride_px: int = 8
+    occlusion_geomgroups: tuple[int, ...] = (0, 1, 2)
+    psf: bool = True
+
+    def validate(self) -> None:
+        """Raise ValueError naming the field, the value and what is allowed."""
+        SensorSpec.validate(self)
+        if self.camera not in camera_mod.PRESETS:
+            raise ValueError(f"camera = {self.camera!r}: allowed: {sorted(camera_mod.PRESETS)}")
+        if self.sensor not in mosaic_mod.PRESETS:
+            raise ValueError(f"sensor = {self.sensor!r}: allowed: {sorted(mosaic_mod.PRESETS)}")
+        if self.binning not in (1, 2, 4):
+            raise ValueError(f"binning = {self.binning!r}: allowed: 1, 2, 4")
+        if self.housing not in ("dome", "flat"):
+            raise ValueError(f"housing = {self.housing!r}: allowed: 'dome', 'flat'")
+        for name, lo, hi in (
+            ("f_number", 0.5, 64.0),
+            ("passband_nm", 1.0, 1000.0),
+            ("lens_transmission", 1e-6, 1.0),
+        ):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"{name} = {v!r}: allowed: [{lo:g}, {hi:g}]")
+        if self.exposure_us is not None and not (
+            math.isfinite(self.exposure_us) and 0 < self.exposure_us <= 1e7
+        ):
+            raise ValueError(f"exposure_us = {self.exposure_us!r}: allowed: (0, 1e7] or None")
+        if not (isinstance(self.occlusion_stride_px, int) and 1 <= self.occlusion_stride_px <= 64):
+            raise ValueError(
+                f"occlusion_stride_px = {self.occlusion_stride_px!r}: allowed: integers 1..64"
+            )
+        if any(not (0 <= g <= 5) for g in self.occlusion_geomgroups):
+            raise ValueError(
+                f"occlusion_geomgroups = {self.occlusion_geomgroups!r}: allowed: groups 0..5"
+            )
+        self.camera_spec()  # binning vs sensor size, housing
+
+    def camera_spec(self) -> camera_mod.FisheyeSpec:
+        return camera_mod.preset(self.camera, binning=self.binning, housing=self.housing)
+
+    def sensor_spec(self) -> mosaic_mod.PolarizationSensorSpec:
+        """The DoFP spec of one (binned) pixel.
+
+        Binning b sums the charge of b² same-orientation pixels and reads it out rescaled to the
+        same ADC range (a camera's "average" binning mode): full well, conversion gain and dark
+        current scale by b², read noise and DSNU (independent per pixel) by b. Shot noise follows
+        from the summed signal, so SNR grows by b as it should.
+        """
+        s = mosaic_mod.preset(self.sensor)
+        changes: dict[str, Any] = {}
+        b = self.binning
+        if b > 1:
+            changes.update(
+                full_well_e=s.full_well_e * b * b,
+                conversion_gain_e_per_dn=s.conversion_gain_e_per_dn * b * b,
+                dark_current_e_per_s=s.dark_current_e_per_s * b * b,
+                read_noise_e=s.read_noise_e * b,
+                dsnu_e=s.dsnu_e * b,
+            )
+        if self.exposure_us is not None:
+            changes["exposure_us"] = float(self.exposure_us)
+        if self.auto_exposure is not None:
+            changes["auto_exposure"] = bool(self.auto_exposure)
+        return dataclasses.replace(s, **changes) if changes else s
+
+
+@dataclass(frozen=True, slots=True)
+class PolarimeterTruth:
+    """Truth layers of the last frame (truth channel only).
+
+    Attributes:
+        t: Sim time of the frame.
+        stokes: (H, W, 3) true sensor-plane Stokes, photons per pixel per second (float32).
+        snell_window: (H, W) pixels whose ray reaches the sky through the surface.
+        occluded: (H, W) pixels whose sky is blocked by the scene.
+        sun_pixel: (u, v) of the (refracted) sun in the image, or None when not in view / night.
+        sun_enu: (3,) true ENU direction to the sun in air.
+        depth_m: Camera depth below the surface (negative: in air).
+        night: The sun was below the night threshold.
+        exposure_us: Exposure used.
+    """
+
+    t: float
+    stokes: FloatArray
+    snell_window: NDArray[np.bool_]
+    occluded: NDArray[np.bool_]
+    sun_pixel: tuple[float, float] | None
+    sun_enu: NDArray[np.float64]
+    depth_m: float
+    night: bool
+    exposure_us: float
+
+
+def _hemisphere(n: int) -> NDArray[np.float64]:
+    """N near-uniform directions on the upper hemisphere (Fibonacci), for irradiance quadrature."""
+    i = np.arange(n) + 0.5
+    z = 1.0 - i / n
+    r = np.sqrt(1.0 - z * z)
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * i
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+_HEMI = _hemisphere(2048)
+_DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm below the site
+
+
+@register
+class Polarimeter(Sensor):
+    """The upward-looking fisheye DoFP polarization camera at the ``polarimeter`` site.
+
+    Call :meth:`configure` with the world's :class:`OpticsConfig` before the first frame (the
+    world builder does; the default is a clear sky over Jerlov II water).
+    """
+
+    kind: ClassVar[str] = "polarimeter"
+    spec_type: ClassVar[type[SensorSpec]] = PolarimeterSpec
+    default_site: ClassVar[str] = "polarimeter"
+    PRESETS: ClassVar[MappingProxyType[str, SensorSpec]] = MappingProxyType(
+        {
+            # LIG paper (hu2024 §4): LUCID PHX050S-P + Fujinon FE185C057HA-1, 700 µs, 10 Hz.
+            "phx050s_p": PolarimeterSpec(camera="phx050s_fe185", sensor="phx050s_p"),
+            # The same camera binned 4×4 (612×512): for long runs and Monte Carlo campaigns.
+            "phx050s_p_bin4": PolarimeterSpec(
+                camera="phx050s_fe185", sensor="phx050s_p", binning=4
+            ),
+            # ROI-A paper (fang2024 Table 2): IMX264MZR board camera, 185° lens, auto exposure,
+            # PMMA shell (a flat port is not stated; a dome is assumed) [uncertain].
+            "imx264mzr": PolarimeterSpec(camera="imx264_185", sensor="imx264mzr"),
+            # An ideal, noise-free camera with the LIG geometry (auto exposure, 16-bit).
+            "ideal": PolarimeterSpec(camera="phx050s_fe185", sensor="ideal"),
+            "ideal_bin4": PolarimeterSpec(camera="phx050s_fe185", sensor="ideal", binning=4),
+            # The MOI paper's hypothetical in-air pinhole imager (liang2020 §3), noise-free.
+            "moi_pinhole": PolarimeterSpec(camera="moi_pinhole", sensor="ideal", occlusion=False),
+        }
+    )
+
+    def __init__(self, spec: SensorSpec, *, name: str | None = None, site: str | None = None):
+        super().__init__(spec, name=name, site=site)
+        assert isinstance(self.spec, PolarimeterSpec)
+        self.pspec: PolarimeterSpec = self.spec
+        self.camera = camera_mod.Camera(self.pspec.camera_spec())
+        self.optics = OpticsConfig()
+        self._column: water_mod.WaterColumn | None = None
+        self._tracker: SunTracker | None = None
+        self._tracker_place: tuple[float, float] | None = None
+        self._dofp: mosaic_mod.DoFPSensor | None = None
+        self._waves: surface_mod.WaveSurface | None = None
+        self._last_t: float | None = None
+        self.truth: PolarimeterTruth | None = None
+        self._configure_derived()
+
+    # ---- configuration -------------------------------------------------------------------------
+    def configure(self, optics: OpticsConfig) -> None:
+        """Set the world's optics (sky, water, surface)."""
+        if not isinstance(optics, OpticsConfig):
+            raise TypeError(f"configure needs an OpticsConfig, got {type(optics).__name__}")
+        self.optics = optics
+        self._configure_derived()
+
+    def _configure_derived(self) -> None:
+        o = self.optics
+        self.n_water = o.water_index
+        self._column = water_mod.WaterColumn(
+            water_mod.jerlov_water(o.jerlov_type, o.turbidity), self.n_water, o.scattering
+        )
+        # Radiance → photons/s per pixel: the camera equation at the binned pixel pitch.
+        pitch = self.camera.spec.pixel_pitch_um * self.camera.spec.binning
+        self._photon_scale = float(
+            mosaic_mod.photon_rate_per_pixel(
+                self.pspec.passband_nm,
+                f_number=self.pspec.f_number,
+                pixel_pitch_um=pitch,
+                wavelength_nm=o.wavelength_nm,
+                lens_transmission=self.pspec.lens_transmission,
+            )
+        )
+        # Sky used for irradiance quadrature: no disc (the disc is added analytically).
+        self._sky_no_disc = dataclasses.replace(o.sky, sun_relative_radiance=0.0)
+        sa = self.camera.pixel_solid_angle_sr.astype(np.float64)
+        # ~1-pixel PSF on the sky side: in-water angles are magnified by ≈ n through the surface.
+        self._psf_sigma = (0.6 * np.sqrt(np.maximum(sa, 0.0)) * self.n_water).astype(np.float32)
+        self._psf_sigma_air = (0.6 * np.sqrt(np.maximum(sa, 0.0))).astype(np.float32)
+
+    def calibration(self):
+        """The onboard camera calibration (what the vehicle knows of this camera)."""
+        from sensors.polarimeter.calibration import calibration_from_spec
+
+        cal = calibration_from_spec(self.camera.spec)
+        ss = self.pspec.sensor_spec()
+        return dataclasses.replace(
+            cal,
+            saturation_dn=ss.saturation_dn,
+            black_level_dn=ss.black_level_dn,
+            layout_deg=ss.layout_deg,
+        )
+
+    # ---- Sensor API ----------------------------------------------------------------------------
+    def channel_specs(self) -> dict[str, dm_env.specs.Array]:
+        h, w = self.camera.shape
+        return {
+            "raw": dm_env.specs.Array((h, w), np.uint16, name=f"{self.name}/raw"),
+            "exposure_us": dm_env.specs.Array((), np.float64, name=f"{self.name}/exposure_us"),
+        }
+
+    def reset(self, world: WorldView, rng: np.random.Generator) -> None:
+        """Draw the sensor's fixed pattern and the sea surface from this sensor's stream."""
+        seeds = rng.spawn(2)
+        self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, seeds[0])
+        o = self.optics
+        sea = surface_mod.WindSea(
+            wind_speed_mps=o.wind_speed_mps,
+            wind_dir_rad=math.radians(90.0 - o.wind_toward_deg),
+        )
+        self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
+        self._last_t = None
+        self.truth = None
+        self._sun_for(world)
+
+    def _sun_for(self, world: WorldView) -> SunTracker:
+        place = (math.degrees(world.latitude_rad), math.degrees(world.longitude_rad))
+        if self._tracker is None or self._tracker_place != place:
+            lon = ((place[1] + 180.0) % 360.0) - 180.0
+            self._tracker = SunTracker(place[0], lon)
+            self._tracker_place = place
+        return self._tracker
+
+    def sample(self, world: WorldView, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        if self._dofp is None:
+            self.reset(world, rng)
+        assert self._dofp is not None
+        pos, c_cn = world.site_pose(self.site)
+        c_cn = np.asarray(c_cn, dtype=np.float64)
+        depth = float(world.surface_z_m - pos[2])
+        sun = self._sun_for(world)(world.utc)
+        if self._waves is not None and self._last_t is not None:
+            self._waves.step(max(world.t - self._last_t, 0.0))
+        self._last_t = world.t
+        stokes, window, occluded, sun_look = self.render_stokes(world, pos, c_cn, depth, sun)
+        dofp = self._dofp
+        exposure = dofp.exposure_for(stokes)
+        raw = dofp.render_mosaic(stokes, exposure, rng)
+        sun_px = None
+        if sun_look is not None:
+            # In the lens's own space: through a flat port the in-water direction bends.
+            look_c = c_cn.T @ sun_look
+            u, v, ok = self.camera.project_outside(look_c, self.n_water if depth > 0 else 1.0)
+            if bool(ok):
+                sun_px = (float(u), float(v))
+        self.truth = PolarimeterTruth(
+            t=world.t,
+            stokes=stokes,
+            snell_window=window,
+            occluded=occluded,
+            sun_pixel=sun_px,
+            sun_enu=np.asarray(sun.direction_enu, dtype=np.float64),
+            depth_m=depth,
+            night=bool(sun.is_night),
+            exposure_us=float(exposure),
+        )
+        return {"raw": raw, "exposure_us": np.asarray(float(exposure))}
+
+    # ---- the physics chain ---------------------------------------------------------------------
+    def render_stokes(
+        self,
+        world: WorldView | None,
+        pos: NDArray[np.float64],
+        c_cn: NDArray[np.float64],
+        depth_m: float,
+        sun: Any,
+    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64] | None]:
+        """Sensor-plane Stokes (photons/s per pixel) for a camera at ``pos`` with attitude C_c^n.
+
+        Args:
+            world: For occlusion (its MuJoCo model and data); None = no occlusion.
+            pos: Camera position (ENU, m).
+            c_cn: C_c^n, camera → ENU.
+            depth_m: Camera depth below the surface (≤ 0: in air).
+            sun: A :class:`~sensors.polarimeter.sun.SunPosition` (or ENU vector).
+
+        Returns:
+            (stokes (H, W, 3) float32, Snell-window mask, occlusion mask, ENU look direction of
+            the sun as the camera sees it (refracted under water) or None at night).
+        """
+        cam = self.camera
+        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
+        o = self.optics
+        in_water = depth_m > 0.0
+        n_out = self.n_water if in_water else 1.0
+        port = cam.outside(n_out)
+        rays = port.directions  # (H, W, 3) outside the housing, camera frame
+        valid = port.valid
+        occluded = self._occlusion(world, pos, c_cn, rays, depth_m)
+        if not in_water:
+            sky = sky_radiance(rays, sun, o.sky, rotation=c_cn, psf_sigma_rad=self._psf_sigma_air)
+            st = np.array(sky.stokes, dtype=np.float32)
+            up = (rays.reshape(-1, 3) @ c_cn[2].astype(rays.dtype)).reshape(cam.shape)
+            window = valid & (up > 0) & ~occluded
+            st *= window[..., None]
+            sun_look = None if sun_enu[2] <= 0 else sun_enu
+        else:
+            normals = None
+            if self._waves is not None:
+                normals = self._waves.normals_for_rays(rays, pos[:2], depth_m, rotation=c_cn)
+            trans = surface_mod.surface_transmission(
+                rays, self.n_water, rotation=c_cn, normals=normals
+            )
+            sky_dirs = trans.sky_directions()
+            sky = sky_radiance(sky_dirs, sun, o.sky, rotation=c_cn, psf_sigma_rad=self._psf_sigma)
+            window_st = trans.apply(sky.stokes)
+            window = trans.sees_sky & valid & ~occluded
+            if occluded.any():
+                window_st = np.where(occluded[..., None], 0.0, window_st).astype(window_st.dtype)
+            beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
+            e_sun_air = o.sky.sun_disc_radiance * math.pi * o.sky.sun_radius_rad**2
+            e_sky_air = self._sky_irradiance(sun)
+            assert self._column is not None
+            state = self._column.state(
+                depth_m, beam.look_dir, beam.irradiance_factor, beam.dop, e_sun_air, e_sky_air
+            )
+            st = np.asarray(self._column.render(rays, state, window_st, rotation=c_cn))
+            sun_look = beam.look_dir if beam.transmitted else None
+        st = self._to_sensor(st, c_cn, port)
+        st *= valid[..., None]
+        st *= np.float32(self._photon_scale)
+        np.nan_to_num(st, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+        np.maximum(st[..., 0], 0.0, out=st[..., 0])
+        return st, window, occluded, sun_look
+
+    def _sky_irradiance(self, sun: Any) -> float:
+        """Diffuse horizontal irradiance of the sky (no disc), by quadrature over the hemisphere."""
+        sky = sky_radiance(_HEMI, sun, self._sky_no_disc)
+        return float(np.mean(sky.stokes[..., 0] * _HEMI[:, 2]) * 2.0 * math.pi)
+
+    def _to_sensor(
+        self, st: FloatArray, c_cn: NDArray[np.float64], port: camera_mod.PortRays
+    ) -> FloatArray:
+        """ENU-meridian Stokes of the light along −ray (outside) → sensor-plane Stokes."""
+        cam = self.camera
+        if port.housing == "dome":
+            out = cam.sensor_stokes_from_meridian(st.astype(cam.dtype, copy=False), c_cn)
+            return np.ascontiguousarray(out, dtype=np.float32)
+        # Flat port: meridian (ENU) → the port's plane of incidence (camera meridional plane),
+        # Fresnel twice in that basis, then the lens ray shares the plane (p-axis → p-axis).
+        w = port.directions.astype(np.float64)
+        d_out = -w
+        ref_enu = camera_mod._meridian_reference_in_camera(w, c_cn)
+        z = np.array([0.0, 0.0, 1.0])
+        p_out = stokes_mod.meridian_reference(d_out, up=z)
+        s = stokes_mod.rotate_reference(st.astype(np.float64), d_out, ref_enu, p_out)
+        m00, m01, m22 = surface_mod.interface_chain_elements(port.interfaces())
+        i, q, u = s[..., 0].copy(), s[..., 1].copy(), s[..., 2].copy()
+        s[..., 0] = m00 * i + m01 * q
+        s[..., 1] = m01 * i + m00 * q
+        s[..., 2] = m22 * u
+        lens = cam.rays.astype(np.float64)
+        p_in = stokes_mod.meridian_reference(-lens, up=z)
+        out = cam.to_sensor_stokes(s, p_in)
+        return np.ascontiguousarray(out, dtype=np.float32)
+
+    def _occlusion(
+        self,
+        world: WorldView | None,
+        pos: NDArray[np.float64],
+        c_cn: NDArray[np.float64],
+        rays: FloatArray,
+        depth_m: float,
+    ) -> NDArray[np.bool_]:
+        """Pixels whose path to the sky is blocked by scene geometry (coarse grid, upsampled)."""
+        h, w = self.camera.shape
+        if world is None or not self.pspec.occlusion:
+            return np.zeros((h, w), dtype=bool)
+        k = self.pspec.occlusion_stride_px
+        sub = np.ascontiguousarray(rays[k // 2 :: k, k // 2 :: k], dtype=np.float64)
+        sh = sub.shape[:2]
+        vec = sub.reshape(-1, 3) @ c_cn.T  # ENU
+        nray = vec.shape[0]
+        geomid = np.full(nray, -1, dtype=np.int32)
+        dist = np.full(nray, -1.0, dtype=np.float64)
+        groups = np.zeros(6, dtype=np.uint8)
+        groups[list(self.pspec.occlusion_geomgroups)] = 1
+        # A ray is blocked when it meets geometry before the surface (in air: anywhere above).
+        up = vec[:, 2]
+        if depth_m > 0:
+            to_surface = np.where(up > 1e-6, depth_m / np.maximum(up, 1e-6), np.inf)
+            finite = to_surface[np.isfinite(to_surface)]
+            cutoff = float(min(finite.max(), 1e4)) if finite.size else 1e4
+        else:  # in air: anything in the way blocks the sky
+            to_surface = np.full(nray, np.inf)
+            cutoff = 1e4
+        # Cast from just outside the camera's own dome (the site sits inside that visual geom, which
+        # would stop every ray); a 2.5 cm parallax is negligible for occluders.
+        origin = np.asarray(pos, dtype=np.float64) + _DOME_CLEARANCE_M * c_cn[:, 2]
+        mujoco.mj_multiRay(
+            world.model,
+            world.data,
+            origin,
+            vec.reshape(-1),
+            groups,
+            1,
+            -1,
+            geomid,
+            dist,
+            None,
+            nray,
+            max(cutoff, 1e-3),
+        )
+        # The sea-surface plane (a visual geom at z = 0) sits exactly at to_surface: a margin
+        # keeps it from blocking its own sky.
+        blocked = (geomid >= 0) & (dist >= 0) & (dist < 0.999 * to_surface - 0.01)
+        blocked = blocked.reshape(sh)
+        # Nearest-neighbour upsampling back to the frame.
+        rows = np.minimum(np.arange(h) // k, sh[0] - 1)
+        cols = np.minimum(np.arange(w) // k, sh[1] - 1)
+        return blocked[np.ix_(rows, cols)]
+
+    def describe(self) -> dict[str, Any]:
+        d = super().describe()
+        d["optics"] = dataclasses.asdict(self.optics)
+        d["image_shape"] = list(self.camera.shape)
+        return d

@@ -1,0 +1,250 @@
+"""One interface for every compass method: a raw polarimeter frame in, a solar-vector fix out.
+
+Onboard side of the world/onboard boundary: a method sees the raw mosaic, the camera calibration
+(:class:`~twin.onboard.calibration.CameraCalibration`), the attitude hint from the INS (roll and
+pitch, as the LIG paper's C_b^h), and the place and time — never truth.
+
+Frames (``twin.frames``): body b = x starboard, y forward, z up; horizontal h = the body frame
+turned level (h = C_b^h b with C_b^h = Rx(pitch)·Ry(roll)), so that n = Rz(yaw)·h; navigation
+n = ENU. The camera frame c is the ``polarimeter`` site frame (C_c^b = the calibration's mount
+rotation, identity for the shipped vehicle). A solar vector points from the camera towards the
+sun *in air* (the refraction at the surface is undone by each method that needs it); the heading
+it implies is compass degrees clockwise from North (radians inside).
+
+Every method returns a :class:`CompassFix`. Low signal (night, deep water, occluded, too few
+usable pixels) gives ``ok=False`` with a ``reason`` — never a NaN handed on.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.frames import euler_to_dcm, wrap_pi
+from twin.onboard.calibration import CameraCalibration
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class CompassContext:
+    """What accompanies a frame: the vehicle's own knowledge at the frame's time.
+
+    Attributes:
+        utc: Time of the exposure (timezone-aware UTC, or naive meaning UTC).
+        latitude_deg: Declared (or INS) latitude.
+        longitude_deg: Declared (or INS) longitude.
+        roll_rad: Attitude hint from the INS (``twin.frames`` convention); 0 for a level camera.
+        pitch_rad: Attitude hint from the INS.
+        depth_m: Depth hint (depth gauge), m; 0 in air.
+        water_index: Refractive index of the water the camera looks up through (declared
+            knowledge); 1.0 means the camera is in air (no refraction to undo).
+        sun_enu: Optional ephemeris solar vector (ENU, unit). When None the method computes it
+            from utc and the place (:func:`twin.onboard.ephemeris.sun_direction_enu`).
+    """
+
+    utc: dt.datetime
+    latitude_deg: float
+    longitude_deg: float
+    roll_rad: float = 0.0
+    pitch_rad: float = 0.0
+    depth_m: float = 0.0
+    water_index: float = 1.338
+    sun_enu: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        checks = (
+            ("latitude_deg", self.latitude_deg, -90.0, 90.0),
+            ("longitude_deg", self.longitude_deg, -180.0, 360.0),
+            ("roll_rad", self.roll_rad, -math.pi, math.pi),
+            ("pitch_rad", self.pitch_rad, -math.pi / 2, math.pi / 2),
+            ("depth_m", self.depth_m, 0.0, 12000.0),
+            ("water_index", self.water_index, 1.0, 2.0),
+        )
+        for name, v, lo, hi in checks:
+            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(
+                    f"CompassContext.{name}: {v!r} is out of range; allowed [{lo:g}, {hi:g}]"
+                )
+
+    @property
+    def c_b_h(self) -> FloatArray:
+        """C_b^h: body → horizontal (level, heading-free) frame, from the roll/pitch hint."""
+        return euler_to_dcm(self.roll_rad, self.pitch_rad, 0.0)
+
+
+@dataclass(frozen=True)
+class CompassFix:
+    """What a compass method returns for one frame.
+
+    Attributes:
+        method: The method's name.
+        ok: A usable solution. When False, every vector is None and ``reason`` says why.
+        reason: Why there is no solution ("" when ok).
+        sun_body: (3,) unit solar vector in the body frame (towards the sun, in air).
+        sun_h: (3,) the same in the horizontal frame (C_b^h · sun_body).
+        sun_enu: (3,) the ephemeris solar vector used for the heading.
+        heading_rad: Heading implied by the fix through the ephemeris: compass, clockwise from
+            North, in [0, 2π). None when the sun is at the zenith (no azimuth).
+        roll_rad: Roll measured by the method itself (Snell-window method), else None.
+        pitch_rad: Pitch measured by the method itself, else None.
+        covariance_body: (3, 3) measurement covariance of ``sun_body`` (rad² on the tangent
+            plane), for the Kalman filter's R_s.
+        heading_sigma_rad: 1σ of ``heading_rad`` (from the covariance and the sun's elevation).
+        pixels_used: Pixels (or super-pixels) that entered the estimate.
+        residual: Method-specific fit residual (documented per method).
+        eigen_gap: Ratio of the two smallest eigenvalues (λ2/λ1 ≥ 1; larger = better
+            conditioned), where the method solves an eigenproblem, else None.
+        extras: Method-specific diagnostics (numbers only), e.g. the ambiguity decision.
+    """
+
+    method: str
+    ok: bool
+    reason: str = ""
+    sun_body: FloatArray | None = None
+    sun_h: FloatArray | None = None
+    sun_enu: FloatArray | None = None
+    heading_rad: float | None = None
+    roll_rad: float | None = None
+    pitch_rad: float | None = None
+    covariance_body: FloatArray | None = None
+    heading_sigma_rad: float | None = None
+    pixels_used: int = 0
+    residual: float | None = None
+    eigen_gap: float | None = None
+    extras: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def heading_deg(self) -> float | None:
+        return None if self.heading_rad is None else math.degrees(self.heading_rad)
+
+
+def no_fix(method: str, reason: str, pixels_used: int = 0, **extras: float) -> CompassFix:
+    """A fix that says "no solution" and why."""
+    return CompassFix(
+        method=method, ok=False, reason=reason, pixels_used=pixels_used, extras=extras
+    )
+
+
+def heading_from_sun(sun_h: FloatArray, sun_enu: FloatArray) -> float | None:
+    """Compass heading (rad, [0, 2π)) that turns the horizontal-frame solar vector onto the ENU one.
+
+    n = Rz(yaw)·h and compass heading = −yaw, so the sun's compass azimuth in n (atan2(E, N)) minus
+    its azimuth relative to the bow in h (atan2(x, y)) is the heading. None when either vector has
+    no horizontal component (sun at the zenith).
+    """
+    h = np.asarray(sun_h, dtype=np.float64)
+    n = np.asarray(sun_enu, dtype=np.float64)
+    if math.hypot(h[0], h[1]) < 1e-9 or math.hypot(n[0], n[1]) < 1e-9:
+        return None
+    az_n = math.atan2(n[0], n[1])
+    az_h = math.atan2(h[0], h[1])
+    return wrap_pi(az_n - az_h) % (2 * math.pi)
+
+
+def heading_sigma(cov_body: FloatArray, sun_h: FloatArray, c_b_h: FloatArray) -> float:
+    """1σ heading uncertainty from the solar-vector covariance (small-angle, first order).
+
+    The heading is the azimuth of sun_h; its sensitivity to a perturbation of sun_h is the
+    horizontal tangent direction divided by the horizontal norm.
+    """
+    h = np.asarray(sun_h, dtype=np.float64)
+    rho = math.hypot(h[0], h[1])
+    if rho < 1e-9:
+        return math.pi
+    g = np.array([h[1], -h[0], 0.0]) / (rho * rho)  # d az / d sun_h
+    cov_h = c_b_h @ np.asarray(cov_body) @ c_b_h.T
+    return float(math.sqrt(max(float(g @ cov_h @ g), 0.0)))
+
+
+def finish_fix(
+    method: str,
+    sun_body: FloatArray,
+    ctx: CompassContext,
+    sun_enu: FloatArray,
+    covariance_body: FloatArray,
+    *,
+    pixels_used: int,
+    residual: float | None = None,
+    eigen_gap: float | None = None,
+    roll_rad: float | None = None,
+    pitch_rad: float | None = None,
+    c_b_h: FloatArray | None = None,
+    **extras: float,
+) -> CompassFix:
+    """Assemble an ``ok`` fix from a body-frame solar vector (normalised here; NaN ⇒ no fix).
+
+    ``c_b_h`` overrides the context's roll/pitch hint (a method that measures its own roll and
+    pitch levels the vector with those).
+    """
+    s = np.asarray(sun_body, dtype=np.float64).reshape(3)
+    norm = float(np.linalg.norm(s))
+    if not (math.isfinite(norm) and norm > 0):
+        return no_fix(method, "solar vector is not finite", pixels_used)
+    s = s / norm
+    cbh = ctx.c_b_h if c_b_h is None else c_b_h
+    sun_h = cbh @ s
+    heading = heading_from_sun(sun_h, sun_enu)
+    cov = np.asarray(covariance_body, dtype=np.float64)
+    return CompassFix(
+        method=method,
+        ok=True,
+        sun_body=s,
+        sun_h=sun_h,
+        sun_enu=np.asarray(sun_enu, dtype=np.float64),
+        heading_rad=heading,
+        roll_rad=roll_rad,
+        pitch_rad=pitch_rad,
+        covariance_body=cov,
+        heading_sigma_rad=heading_sigma(cov, sun_h, cbh),
+        pixels_used=int(pixels_used),
+        residual=residual,
+        eigen_gap=eigen_gap,
+        extras={k: float(v) for k, v in extras.items()},
+    )
+
+
+@runtime_checkable
+class CompassMethod(Protocol):
+    """A compass method: ``solve(raw, calibration, context) -> CompassFix``."""
+
+    name: str
+
+    def solve(
+        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
+    ) -> CompassFix: ...
+
+
+_REGISTRY: dict[str, type] = {}
+
+
+def register(cls: type) -> type:
+    """Class decorator: add a compass method to the registry under ``cls.name``."""
+    name = getattr(cls, "name", None)
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"{cls!r} needs a class attribute 'name'")
+    if name in _REGISTRY and _REGISTRY[name] is not cls:
+        raise ValueError(f"compass method {name!r} is already registered")
+    _REGISTRY[name] = cls
+    return cls
+
+
+def available() -> dict[str, type]:
+    """Registered methods by name (imports the built-in method modules first)."""
+    from twin.onboard import compass as _pkg
+
+    _pkg.load_builtins()
+    return dict(_REGISTRY)
+
+
+def create(name: str, **kwargs: object) -> CompassMethod:
+    """A configured method by name; a clear error listing the allowed names."""
+    methods = available()
+    if name not in methods:
+        raise ValueError(f"compass method: {name!r} is unknown; allowed: {sorted(methods)}")
+    return methods[name](**kwargs)
