@@ -134,7 +134,12 @@ def default_blueprint() -> rrb.Blueprint:
                 world,
                 rrb.Horizontal(
                     rrb.Spatial2DView(origin="/camera/chase", name="Chase camera"),
-                    rrb.TextLogView(origin=LOG_ENTITY, name="Log"),
+                    rrb.Tabs(
+                        rrb.Spatial2DView(origin="/polarimeter/intensity", name="Polarimeter S0"),
+                        rrb.Spatial2DView(origin="/polarimeter/aop", name="Polarimeter AoP"),
+                        rrb.Spatial2DView(origin="/polarimeter/dop", name="Polarimeter DoP"),
+                        rrb.TextLogView(origin=LOG_ENTITY, name="Log"),
+                    ),
                 ),
                 row_shares=[0.65, 0.35],
             ),

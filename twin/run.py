@@ -25,10 +25,14 @@ import mujoco
 import numpy as np
 
 from scenarios.schema import Scenario
+from sensors.polarimeter import images
+from sensors.polarimeter.render import Polarimeter
 from twin.actuators import ActuatorCommand
 from twin.autopilot import Setpoint
 from twin.frames import wrap_deg180
 from twin.guidance import GuidanceStatus
+from twin.messages import Reading
+from twin.onboard.polarization import stokes_from_mosaic
 from twin.recorder import Recorder
 from twin.world import World, build_world
 
@@ -286,7 +290,7 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
             rec.log_reading(reading)
             readings_count[reading.sensor] = readings_count.get(reading.sensor, 0) + 1
             if reading.sensor == "polarimeter" and reading.t >= next_pol_log_t:
-                _log_polarimeter(rec, reading)
+                _log_polarimeter(rec, reading, suite[reading.sensor])
                 next_pol_log_t = reading.t + 1.0 / sc.recording.polarimeter_log_rate_hz - 1e-9
         if (k + 1) % every_truth == 0:
             truth = plant.truth()
@@ -311,15 +315,19 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
     return "duration_reached"
 
 
-def _log_polarimeter(rec: Recorder, reading) -> None:
+def _log_polarimeter(rec: Recorder, reading: Reading, cam: Polarimeter) -> None:
     """Intensity, AoP (cyclic colormap) and DoP images of a frame, as onboard code derives them."""
-    from sensors.polarimeter import images
-    from twin.onboard.polarization import stokes_from_mosaic
-
-    pol = stokes_from_mosaic(reading["raw"])
-    rec.log_image("/polarimeter/intensity", reading.t, images.intensity_image(pol.s0))
-    rec.log_image("/polarimeter/aop", reading.t, images.aop_image(pol.aop, pol.dop))
-    rec.log_image("/polarimeter/dop", reading.t, images.dop_image(pol.dop))
+    cal = cam.calibration()
+    pol = stokes_from_mosaic(
+        reading["raw"],
+        cal.layout_deg,
+        black_level_dn=cal.black_level_dn,
+        saturation_dn=cal.saturation_dn,
+    )
+    mask = images.signal_mask(pol)
+    rec.log_image("/polarimeter/intensity", reading.t, images.intensity_u8(pol.s0))
+    rec.log_image("/polarimeter/aop", reading.t, images.aop_rgb(pol.aop, mask))
+    rec.log_image("/polarimeter/dop", reading.t, images.dop_rgb(pol.dop, mask))
 
 
 def _accumulate(

@@ -524,8 +524,17 @@ def world_components(
     """ENU components (x, y, z) of a block of (m, 3) directions given in frame F (C_F^n = r)."""
     if r is None:
         return block[:, 0], block[:, 1], block[:, 2]
-    w = np.matmul(r.astype(block.dtype), block.T, out=out[:, : block.shape[0]])
-    return w[0], w[1], w[2]
+    # Three fused multiply-adds a component: numpy's matmul takes a slow non-BLAS path on the
+    # strided (3, m) view of planar storage (measured 5.7 ms vs ~1 ms a 65 k block).
+    m = block.shape[0]
+    x, y, z = block[:, 0], block[:, 1], block[:, 2]
+    rc = r.astype(block.dtype)
+    for i in range(3):
+        o = out[i, :m]
+        np.multiply(x, rc[i, 0], out=o)
+        o += y * rc[i, 1]
+        o += z * rc[i, 2]
+    return out[0, :m], out[1, :m], out[2, :m]
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,0 +1,110 @@
+"""Time per polarimeter frame: the whole physics chain, then the DoFP sensor, on one core.
+
+Issue #3's targets: a full-resolution frame (2448×2048 mosaic, every stage but waves, occlusion
+on a coarse grid) in ≤ 100 ms, a 612×512 frame in ≤ 10 ms. Renders a level camera at 10 m in
+Jerlov II water (sun 40° from the zenith), best of N after a warm-up frame (the per-pixel
+geometry is computed once per camera), and splits the time into the optics (sky, surface, water,
+lens → sensor-plane Stokes) and the sensor (noise, ADC). Occlusion is timed separately against
+the open-sea scene (mj_multiRay on the coarse grid).
+
+    OMP_NUM_THREADS=1 python benchmarks/polarimeter_frame.py [--repeats N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+import scenarios
+import sensors
+from sensors.polarimeter.render import OpticsConfig, Polarimeter
+from twin.world import build_world
+
+RESULTS = Path(__file__).resolve().parent / "results"
+SUN = np.array(
+    [math.sin(math.radians(40)) * 0.6, math.sin(math.radians(40)) * 0.8, math.cos(math.radians(40))]
+)
+
+
+def _best(fn, repeats: int) -> float:
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def time_preset(preset: str, repeats: int) -> dict[str, float]:
+    cam = sensors.create("polarimeter", preset)
+    assert isinstance(cam, Polarimeter)
+    cam.configure(OpticsConfig())
+    rng = np.random.default_rng(0)
+    cam.render_offline(np.eye(3), 10.0, SUN, rng)  # warm-up: per-pixel geometry, fixed pattern
+    assert cam._dofp is not None
+    optics = _best(lambda: cam.render_stokes(None, np.zeros(3), np.eye(3), 10.0, SUN), repeats)
+    stokes = cam.render_stokes(None, np.zeros(3), np.eye(3), 10.0, SUN)[0]
+    sensor = _best(lambda: cam._dofp.render_mosaic(stokes, 700.0, rng), repeats)
+    total = _best(lambda: cam.render_offline(np.eye(3), 10.0, SUN, rng), repeats)
+    # Occlusion against the real scene, from the vehicle's site.
+    world = build_world(scenarios.load("default"))
+    pos, c = world.plant.site_pose("polarimeter")
+    rays = cam.camera.outside(cam.n_water).directions
+    occl = _best(lambda: cam._occlusion(world.plant, pos, c, rays, 10.0), repeats)
+    h, w = cam.camera.shape
+    return {
+        "preset": preset,
+        "shape": f"{w}x{h}",
+        "optics_ms": optics * 1e3,
+        "sensor_ms": sensor * 1e3,
+        "frame_ms": total * 1e3,
+        "occlusion_ms": occl * 1e3,
+        "frame_with_occlusion_ms": (total + occl) * 1e3,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    rows = [time_preset(p, args.repeats) for p in ("phx050s_p", "phx050s_p_bin4")]
+    meta = {
+        "machine": platform.platform(),
+        "cpu_count": os.cpu_count(),
+        "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),
+        "repeats": args.repeats,
+        "date": time.strftime("%Y-%m-%d"),
+    }
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "polarimeter_frame.json").write_text(
+        json.dumps({"meta": meta, "rows": rows}, indent=2)
+    )
+    lines = [
+        "# Polarimeter frame time (one core)",
+        "",
+        f"`python benchmarks/polarimeter_frame.py`, best of {args.repeats}, {meta['date']}, "
+        f"{meta['machine']}. Level camera, 10 m, Jerlov II, flat sea, sun 40° from the zenith.",
+        "",
+        "| preset | frame | optics (sky+surface+water+lens) | sensor (noise, ADC) | whole frame "
+        "| + occlusion (mj_multiRay, every 8th px) | target |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        target = "≤ 100 ms" if r["preset"] == "phx050s_p" else "≤ 10 ms"
+        lines.append(
+            f"| {r['preset']} | {r['shape']} | {r['optics_ms']:.1f} ms | {r['sensor_ms']:.1f} ms "
+            f"| {r['frame_ms']:.1f} ms | {r['frame_with_occlusion_ms']:.1f} ms | {target} |"
+        )
+    (RESULTS / "polarimeter_frame.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
