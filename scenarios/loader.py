@@ -28,6 +28,7 @@ from scenarios.schema import (
     CURRENT_KINDS,
     JERLOV_TYPES,
     MISSION_KINDS,
+    NAV_VARIANTS,
     SCENES,
     SKY_POLARIZATION_MODELS,
     TANK_FLOOR_DEPTH_M,
@@ -42,6 +43,7 @@ from scenarios.schema import (
     Leg,
     LegsMission,
     Mission,
+    Navigation,
     Optics,
     OverrideValue,
     Place,
@@ -872,6 +874,59 @@ def _autopilot(t: _Table | None) -> Autopilot | None:
     return autopilot
 
 
+def _navigation(t: _Table | None) -> Navigation | None:
+    if t is None:
+        return None
+    raw = t._raw("variants", [], "a list of variant names")
+    variants: tuple[str, ...] | None = ()
+    if not isinstance(raw, _Default):
+        path = t.at("variants")
+        if not isinstance(raw, list):
+            t.report.add(
+                path,
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected="a list of names"
+                ),
+            )
+            variants = None
+        else:
+            names: list[str] = []
+            for i, v in enumerate(raw):
+                if not isinstance(v, str) or v not in NAV_VARIANTS:
+                    t.report.add(
+                        f"{path}[{i}]",
+                        MSG_NOT_A_CHOICE.format(value=_show(v), choices=_choices(NAV_VARIANTS)),
+                    )
+                    variants = None
+                elif v in names:
+                    t.report.add(f"{path}[{i}]", f"{_show(v)} is listed twice")
+                    variants = None
+                else:
+                    names.append(v)
+            if variants is not None:
+                variants = tuple(names)
+    steer_on = t.string("steer_on", choices=NAV_VARIANTS, default="")
+    if variants is not None and steer_on and steer_on not in variants:
+        t.report.add(
+            t.at("steer_on"),
+            f"{_show(steer_on)} is not one of the variants run ({list(variants)})",
+        )
+        steer_on = None
+    nav = _build(
+        Navigation,
+        variants=variants,
+        steer_on=steer_on,
+        compass_rate_hz=t.number("compass_rate_hz", CAMERA_RATE_HZ, default=1.0),
+        gravity_aiding=t.boolean("gravity_aiding", default=True),
+        depth_aiding=t.boolean("depth_aiding", default=True),
+        initial_error=t.boolean("initial_error", default=True),
+    )
+    t.finish()
+    if nav is not None and nav.steer_on == "":
+        nav = dataclasses.replace(nav, steer_on=None)
+    return nav
+
+
 def _recording(t: _Table | None) -> Recording | None:
     if t is None:
         return None
@@ -956,6 +1011,29 @@ def _cross_checks(report: _Report, scene: str | None) -> None:
                 report.add(d.path, MSG_BELOW_SEABED.format(value=d.depth_m, seabed=report.seabed_m))
 
 
+def _navigation_checks(
+    report: _Report,
+    nav: Navigation | None,
+    sensors: Sensors | None,
+    autopilot: Autopilot | None,
+) -> None:
+    """Compass variants need a camera; steering on the estimate needs a filter."""
+    if nav is None:
+        return
+    compass = [v for v in nav.variants if v != "ins"]
+    if compass and sensors is not None and sensors.polarimeter is None:
+        report.add(
+            "navigation.variants",
+            f"compass variants {compass} need a camera; set sensors.polarimeter "
+            '(e.g. "phx050s_p_bin4") or keep only "ins"',
+        )
+    if autopilot is not None and autopilot.attitude_source == "estimate" and not nav.variants:
+        report.add(
+            "autopilot.attitude_source",
+            '"estimate" needs an onboard filter; list navigation.variants (e.g. ["ins", "lig"])',
+        )
+
+
 # ---- entry points ------------------------------------------------------------------------------
 
 
@@ -1004,8 +1082,10 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     optics = _optics(top.table("optics"))
     autopilot = _autopilot(top.table("autopilot"))
     recording = _recording(top.table("recording"))
+    navigation = _navigation(top.table("navigation"))
     top.finish()
     _cross_checks(report, scene)
+    _navigation_checks(report, navigation, sensors, autopilot)
     if report.lines:
         raise ScenarioError(report.lines, source)
     scenario = _build(
@@ -1025,6 +1105,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         optics=optics,
         autopilot=autopilot,
         recording=recording,
+        navigation=navigation,
     )
     # Every None above was reported; reaching here without a scenario is a bug in this module.
     assert scenario is not None, "unreported validation failure"

@@ -328,6 +328,43 @@ class Optics:
     wavelength_nm: float = 500.0
 
 
+#: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
+#: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
+#: aids the filter (POL/INS, LIG/INS, ...).
+NAV_VARIANTS: tuple[str, ...] = ("ins", "lig", "pol", "roia", "snell", "moi", "patz", "ht")
+
+
+@dataclass(frozen=True, slots=True)
+class Navigation:
+    """The onboard navigation filters run inside the loop, side by side on one sensor stream.
+
+    Attributes:
+        variants: Filter variants (:data:`NAV_VARIANTS`); empty = no onboard navigation.
+        steer_on: The variant the autopilot follows when ``autopilot.attitude_source`` is
+            ``"estimate"``; None = the first compass variant (else the first variant).
+        compass_rate_hz: How often the compass methods process a polarimeter frame (≤ the
+            camera's rate; frames in between are not processed).
+        gravity_aiding: Gravity-vector updates when quasi-static (LIG paper eqs. 18–19).
+        depth_aiding: Depth-gauge updates of the height.
+        initial_error: Start the filters from truth perturbed by a draw from P0 (True), or
+            from truth exactly (False).
+    """
+
+    variants: tuple[str, ...] = ()
+    steer_on: str | None = None
+    compass_rate_hz: float = 1.0
+    gravity_aiding: bool = True
+    depth_aiding: bool = True
+    initial_error: bool = True
+
+    @property
+    def steering_variant(self) -> str | None:
+        if self.steer_on is not None:
+            return self.steer_on
+        compass = [v for v in self.variants if v != "ins"]
+        return compass[0] if compass else (self.variants[0] if self.variants else None)
+
+
 @dataclass(frozen=True, slots=True)
 class Autopilot:
     """The autopilot's loop rate and where it reads attitude from.
@@ -374,6 +411,7 @@ class Scenario:
     optics: Optics = field(default_factory=Optics)
     autopilot: Autopilot = field(default_factory=Autopilot)
     recording: Recording = field(default_factory=Recording)
+    navigation: Navigation = field(default_factory=Navigation)
 
     def utc_at(self, t_s: float) -> datetime:
         """The UTC instant of simulation time ``t_s`` (seconds since the start)."""
@@ -431,6 +469,7 @@ class Scenario:
             "optics": _plain(self.optics),
             "autopilot": _plain(self.autopilot),
             "recording": _plain(self.recording),
+            "navigation": {k: v for k, v in _plain(self.navigation).items() if v is not None},
         }
         if self.water.seabed_depth_m is None:
             del out["water"]["seabed_depth_m"]

@@ -1,8 +1,8 @@
 """Autopilot: speed, depth and heading hold, steering on a navigation source.
 
-The autopilot takes its attitude, depth and speed from a :class:`NavSource`. Today that is truth
-(:class:`TruthNav`); with the navigation filter it can be the onboard estimate: the autopilot code
-does not change, only the source.
+The autopilot takes its attitude, depth and speed from a :class:`NavSource`: truth
+(``twin.navsources.TruthNav``) or an onboard filter's estimate (``EstimateNav``, scenario setting
+``autopilot.attitude_source = "estimate"``): the autopilot code does not change, only the source.
 
 Sign conventions (twin.actuators): positive rudder turns to starboard (heading increases);
 positive stern planes pitch the nose up.

@@ -150,7 +150,9 @@ class AuvEnv(dm_env.Environment):
         return dm_env.transition(reward, obs)
 
     def _collect(self) -> None:
-        for reading in self._world.suite.poll(self._world.plant):
+        readings = self._world.suite.poll(self._world.plant)
+        self._world.deliver(readings)  # the onboard filters, when the scenario runs any
+        for reading in readings:
             self._obs[f"{reading.sensor}/t"] = np.float64(reading.t)
             for channel, value in reading.values.items():
                 key = f"{reading.sensor}/{channel}"

@@ -126,6 +126,14 @@ def default_blueprint() -> rrb.Blueprint:
         rrb.TimeSeriesView(origin="/truth/speed_mps", name="Speed, truth (m/s)"),
         rrb.TimeSeriesView(origin="/sensors/imu", name="IMU"),
         rrb.TimeSeriesView(origin="/control", name="Actuator commands"),
+        rrb.TimeSeriesView(
+            origin="/",
+            contents=["/truth/heading_deg", "/nav/heading_deg/**"],
+            name="Heading: filters vs truth (deg)",
+        ),
+        rrb.TimeSeriesView(
+            origin="/nav", contents=["/nav/*/heading_error_deg"], name="Heading error ±3σ (deg)"
+        ),
         grid_columns=2,
     )
     return rrb.Blueprint(

@@ -32,6 +32,8 @@ from twin.autopilot import Setpoint
 from twin.frames import wrap_deg180
 from twin.guidance import GuidanceStatus
 from twin.messages import Reading
+from twin.navscore import VariantScore
+from twin.onboard.navigator import CompassEvent
 from twin.onboard.polarization import stokes_from_mosaic
 from twin.recorder import Recorder
 from twin.world import World, build_world
@@ -63,6 +65,7 @@ class _Stats:
     cross_track_sq_steady: float = 0.0
     max_depth_m: float = 0.0
     min_depth_m: float = math.inf
+    nav: dict[str, VariantScore] = field(default_factory=dict)
 
 
 def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
@@ -254,6 +257,9 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
     leg_started_at = 0.0
     next_pol_log_t = 0.0
     readings_count = stats.readings
+    navigators = world.navigators
+    for name in navigators:
+        stats.nav[name] = VariantScore(name)
 
     for k in range(n_steps):
         t = plant.t
@@ -286,7 +292,13 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
                 complete_at = t
                 rec.log_text(t, "mission complete")
         plant.step(cmd)
-        for reading in suite.poll(plant):
+        readings = suite.poll(plant)
+        for name, nav in navigators.items():
+            for reading in readings:
+                event = nav.on_reading(reading)
+                if event is not None:
+                    _log_compass_event(rec, name, event)
+        for reading in readings:
             rec.log_reading(reading)
             readings_count[reading.sensor] = readings_count.get(reading.sensor, 0) + 1
             if reading.sensor == "polarimeter" and reading.t >= next_pol_log_t:
@@ -306,6 +318,8 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
             _accumulate(
                 stats, truth, sp, status, complete_at is None, truth.t - leg_started_at >= _SETTLE_S
             )
+            for name, nav in navigators.items():
+                _log_nav_sample(rec, name, truth.t, stats.nav[name].add(nav, truth))
         if cam is not None and (k + 1) % every_cam == 0:
             rec.log_image("/camera/chase", plant.t, cam.render(plant.data))
         if bar is not None and (k + 1) % every_bar == 0:
@@ -328,6 +342,42 @@ def _log_polarimeter(rec: Recorder, reading: Reading, cam: Polarimeter) -> None:
     rec.log_image("/polarimeter/intensity", reading.t, images.intensity_u8(pol.s0))
     rec.log_image("/polarimeter/aop", reading.t, images.aop_rgb(pol.aop, mask))
     rec.log_image("/polarimeter/dop", reading.t, images.dop_rgb(pol.dop, mask))
+
+
+def _log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
+    """Estimated heading, its error against truth with ±3σ bounds, NEES: time series."""
+    rec.log_scalars(f"/nav/heading_deg/{name}", t, np.array([s["heading_deg"]]), names=[name])
+    sig3 = 3.0 * s["heading_sigma_deg"]
+    rec.log_scalars(
+        f"/nav/{name}/heading_error_deg",
+        t,
+        np.array([s["heading_err_deg"], sig3, -sig3]),
+        names=["error", "+3 sigma", "-3 sigma"],
+    )
+    rec.log_scalars(
+        f"/nav/{name}/attitude_error_deg",
+        t,
+        np.array([s["roll_err_deg"], s["pitch_err_deg"]]),
+        names=["roll", "pitch"],
+    )
+    rec.log_scalars(f"/nav/{name}/position_error_m", t, np.array([s["position_err_m"]]))
+    rec.log_scalars(f"/nav/{name}/nees_attitude", t, np.array([s["nees"]]))
+
+
+def _log_compass_event(rec: Recorder, name: str, event: CompassEvent) -> None:
+    """A processed frame: the fix's heading, or a marked rejection / no-fix."""
+    fix, up = event.fix, event.update
+    if fix.ok and fix.heading_deg is not None:
+        rec.log_scalars(
+            f"/nav/{name}/compass_heading_deg", event.t, np.array([fix.heading_deg]), names=[name]
+        )
+    if up is not None and not up.applied:
+        rec.log_text(
+            event.t, f"{name}: sun update rejected ({up.reason}, NIS {up.nis:.1f})", "WARN"
+        )
+        rec.log_scalars(f"/nav/{name}/rejected_nis", event.t, np.array([up.nis]))
+    elif not fix.ok:
+        rec.log_text(event.t, f"{name}: no compass fix ({fix.reason})", "DEBUG")
 
 
 def _accumulate(
@@ -400,6 +450,22 @@ def _summarize(world: World, stats: _Stats, wall_s: float) -> dict[str, Any]:
         "sensors": [s.describe() for s in world.suite.sensors],
         "physics_timestep_s": world.physics_dt,
         "mujoco_warnings": int(plant.data.warning.number.sum()),
+        **(
+            {
+                "navigation": {
+                    "steering_on": world.scenario.navigation.steering_variant
+                    if world.scenario.autopilot.attitude_source == "estimate"
+                    else "truth",
+                    "variants": {
+                        name: stats.nav[name].summary(nav)
+                        for name, nav in world.navigators.items()
+                        if name in stats.nav
+                    },
+                }
+            }
+            if world.navigators
+            else {}
+        ),
     }
 
 
@@ -431,6 +497,26 @@ def format_summary(metrics: dict[str, Any]) -> str:
                 f"cross-track {st['cross_track_rms_m']:.2f} m rms"
             )
         lines.append(f"  sensor readings: {m['sensor_readings']}")
+    nav = m.get("navigation")
+    if nav:
+        lines.append(f"  navigation (autopilot steering on {nav['steering_on']}):")
+        for name, v in nav["variants"].items():
+            if not v.get("samples"):
+                continue
+            comp = v.get("compass")
+            extra = (
+                f", fixes {comp['fixes']}/{comp['frames']}, sun updates "
+                f"{comp['sun_updates_applied']} (+{comp['sun_updates_rejected']} rejected)"
+                if comp
+                else ""
+            )
+            lines.append(
+                f"    {name:>5}: heading rmse {v['heading_rmse_deg']:.2f} deg "
+                f"(mae {v['heading_mae_deg']:.2f}, max {v['heading_max_deg']:.2f}, final "
+                f"{v['heading_final_deg']:+.2f}), roll/pitch rmse {v['roll_rmse_deg']:.2f}/"
+                f"{v['pitch_rmse_deg']:.2f} deg, drift {v['position_drift_final_m']:.1f} m, "
+                f"NEES {v['nees_attitude_mean']:.2f}{extra}"
+            )
     if "error" in m:
         lines.append(f"  error: {m['error']}")
     return "\n".join(lines)

@@ -7,7 +7,7 @@ simulate exactly the same thing for the same scenario and seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,15 +18,20 @@ from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
 from twin.autopilot import Autopilot
 from twin.current import Current, CurrentProfilePoint
-from twin.frames import heading_deg_to_yaw
+from twin.earth import principal_radii
+from twin.frames import heading_deg_to_yaw, quat_to_dcm
 from twin.guidance import Guidance
-from twin.navsources import TruthNav
+from twin.messages import Reading
+from twin.navsources import EstimateNav, NavSource, TruthNav
+from twin.onboard.ins import NavState as InsNavState
+from twin.onboard.ins import rotvec_to_dcm
+from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
 from twin.plant import Plant, PlantConfig
 
 # Order of the root seed's children. Append new consumers at the end: existing streams then stay
 # the same when a new stochastic component is added.
-SEED_SENSORS, SEED_CURRENT = 0, 1
-_N_SEED_CHILDREN = 2
+SEED_SENSORS, SEED_CURRENT, SEED_NAV = 0, 1, 2
+_N_SEED_CHILDREN = 3
 
 
 @dataclass
@@ -39,7 +44,14 @@ class World:
     suite: SensorSuite
     guidance: Guidance
     autopilot: Autopilot
-    nav: TruthNav
+    nav: NavSource
+    navigators: dict[str, Navigator] = field(default_factory=dict)
+
+    def deliver(self, readings: list[Reading]) -> None:
+        """Hand sensor readings (in delivery order) to every onboard filter variant."""
+        for nav in self.navigators.values():
+            for r in readings:
+                nav.on_reading(r)
 
     @property
     def physics_dt(self) -> float:
@@ -48,8 +60,9 @@ class World:
     def fly(self, until_s: float) -> None:
         """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.
 
-        The sensors are not sampled on the way: this is for getting somewhere (``auv-twin
-        render``), not for recording (``twin.run``).
+        Nothing is recorded: this is for getting somewhere (``auv-twin render``), not for
+        recording (``twin.run``). The sensors are sampled only when onboard filters run (their
+        estimates need the readings; the autopilot may steer on one).
         """
         sc = self.scenario
         dt = self.physics_dt
@@ -62,6 +75,8 @@ class World:
                 sp, _ = self.guidance.update(nav, self.plant.t)
                 cmd = self.autopilot.update(nav, sp, every * dt)
             self.plant.step(cmd)
+            if self.navigators:
+                self.deliver(self.suite.poll(self.plant))
             k += 1
 
 
@@ -158,11 +173,7 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
         suite_sensors.append(polarimeter_sensor(scenario))
     suite = SensorSuite(suite_sensors, seed=children[SEED_SENSORS])
     suite.reset(plant)
-    if scenario.autopilot.attitude_source != "truth":
-        raise NotImplementedError(
-            "autopilot.attitude_source = 'estimate' needs the onboard navigation filter, "
-            "which is not part of this release; use 'truth'"
-        )
+    navigators = _navigators(scenario, plant, suite, children[SEED_NAV])
     # Wheel-over radius: about 3/4 of the 26 m full-rudder turning radius of the REMUS model, so
     # the autopilot keeps some rudder in reserve through the turn.
     guidance = Guidance(
@@ -173,4 +184,55 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
         max_rps=plant.params.prop_max_rpm / 60.0,
         max_fin_rad=plant.params.fin_max_rad,
     )
-    return World(scenario, seed, plant, suite, guidance, autopilot, TruthNav(plant))
+    nav: NavSource = TruthNav(plant)
+    if scenario.autopilot.attitude_source == "estimate":
+        steer = scenario.navigation.steering_variant
+        assert steer is not None  # the loader refuses "estimate" without variants
+        nav = EstimateNav(navigators[steer])
+    return World(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
+
+
+def _navigators(
+    scenario: Scenario, plant: Plant, suite: SensorSuite, seed: np.random.SeedSequence
+) -> dict[str, Navigator]:
+    """The onboard filter variants, started from one shared (perturbed) launch alignment.
+
+    Every variant starts from the same initial solution — truth perturbed by one draw from the
+    filter's P0 when ``navigation.initial_error`` — so that their comparison is paired.
+    """
+    nav = scenario.navigation
+    if not nav.variants:
+        return {}
+    cfg = NavigatorConfig(
+        compass_rate_hz=nav.compass_rate_hz,
+        gravity_aiding=nav.gravity_aiding,
+        depth_aiding=nav.depth_aiding,
+    )
+    tr = plant.truth()
+    c_true = quat_to_dcm(tr.quat_wxyz)
+    pos, vel, lat, lon = tr.position_n, tr.velocity_n, tr.latitude_rad, tr.longitude_rad
+    h = -tr.depth_m
+    if nav.initial_error:
+        rng = np.random.default_rng(seed)
+        e = cfg.eskf
+        phi = rng.normal(0.0, e.p0_attitude_rad)
+        vel = vel + rng.normal(0.0, e.p0_velocity_mps)
+        d_en_u = rng.normal(0.0, e.p0_position_m)
+        r_m, r_n = principal_radii(lat)
+        lat = lat + d_en_u[1] / r_m
+        lon = lon + d_en_u[0] / (r_n * math.cos(lat))
+        h = h + d_en_u[2]
+        # The filter's convention: C_est = exp(−[φ×]) C_true (twin.onboard.eskf).
+        c_true = rotvec_to_dcm(*(-phi)) @ c_true
+    del pos
+    init = InsNavState(0.0, lat, lon, h, np.asarray(vel, float), c_true)
+    cam = next((x for x in suite.sensors if x.kind == "polarimeter"), None)
+    knowledge = VehicleKnowledge(
+        start_utc=scenario.start_utc,
+        latitude_deg=scenario.place.latitude_deg,
+        longitude_deg=scenario.place.longitude_deg,
+        water_index=optics_config(scenario).water_index,
+        calibration=cam.calibration() if cam is not None else None,  # type: ignore[attr-defined]
+        camera=cam.name if cam is not None else "polarimeter",
+    )
+    return {v: Navigator(v, knowledge, init, cfg) for v in nav.variants}

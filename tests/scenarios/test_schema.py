@@ -220,6 +220,43 @@ def test_all_features_file() -> None:
     assert isinstance(dict(s.sensors.imu_overrides)["bits"], int)
     assert s.autopilot.attitude_source == "estimate"
     assert s.recording.camera is False
+    assert s.navigation.variants == ("ins", "pol", "lig")
+    assert s.navigation.steering_variant == "lig"
+    assert (s.navigation.compass_rate_hz, s.navigation.depth_aiding) == (2.0, False)
+
+
+@pytest.mark.parametrize(
+    ("nav", "extra", "path", "needle"),
+    [
+        ({"variants": ["ins", "nope"]}, {}, "navigation.variants[1]", '"nope" is not one of'),
+        ({"variants": ["lig", "lig"]}, {}, "navigation.variants[1]", "listed twice"),
+        ({"variants": "lig"}, {}, "navigation.variants", "expected a list"),
+        ({"variants": ["ins"], "steer_on": "lig"}, {}, "navigation.steer_on", "not one of the"),
+        ({"variants": ["ins"], "compass_rate_hz": 0}, {}, "navigation.compass_rate_hz", "range"),
+        ({"variants": ["ins", "lig"]}, {"no_camera": True}, "navigation.variants", "need a camera"),
+        ({"variants": []}, {"estimate": True}, "autopilot.attitude_source", "needs an onboard"),
+        ({"varients": ["ins"]}, {}, "navigation.varients", "unknown key"),
+    ],
+)
+def test_navigation_errors_name_the_field(nav, extra, path, needle) -> None:
+    data = load_scenario(DATA / "all_features.toml").to_dict()
+    data["navigation"] = nav
+    if extra.get("no_camera"):
+        data["sensors"].pop("polarimeter")
+        data["sensors"].pop("polarimeter_overrides")
+    if not extra.get("estimate"):
+        data["autopilot"]["attitude_source"] = "truth"
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(data)
+    hits = [e for e in info.value.errors if e.startswith(path)]
+    assert hits and needle in hits[0], info.value.errors
+
+
+def test_navigation_defaults_to_no_filter_and_round_trips() -> None:
+    s = parse_scenario(_base(OPEN_SEA))
+    assert s.navigation.variants == () and s.navigation.steering_variant is None
+    f = load_scenario(DATA / "all_features.toml")
+    assert parse_scenario(f.to_dict()) == f
 
 
 def test_offset_datetime_is_normalised_to_utc() -> None:

@@ -1,0 +1,211 @@
+"""The vehicle computer's navigation loop: sensor readings in, a filtered estimate out.
+
+One :class:`Navigator` is one filter variant (issue #5): the strapdown INS + 15-state ESKF
+(:mod:`twin.onboard.eskf`) fed with the IMU at its rate, gravity-vector updates at
+``gravity_rate_hz`` when quasi-static, depth-gauge updates, and — for a compass variant — the solar
+vector of one compass method (:mod:`twin.onboard.compass`) from a polarimeter frame every
+``1/compass_rate_hz`` seconds. The compass method gets the attitude hint (roll, pitch) and the
+position from *this* variant's own estimate, as on a real vehicle.
+
+Variants run side by side on the same readings (the run loop hands every reading to each), so
+their comparison is paired: same IMU noise, same frames, same initial error.
+
+Onboard side: it sees only readings and the vehicle's declared knowledge
+(:class:`VehicleKnowledge`); scoring against truth is the world's business (``twin.navscore``).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from twin import earth
+from twin.frames import FloatArray
+from twin.messages import Reading
+from twin.onboard.calibration import CameraCalibration
+from twin.onboard.compass import CompassContext, CompassFix, create
+from twin.onboard.ephemeris import sun_direction_enu
+from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
+from twin.onboard.ins import NavState
+
+#: The variant that uses no compass: INS aided by gravity and depth only.
+INS_ONLY = "ins"
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleKnowledge:
+    """What the vehicle is told before a mission (no truth).
+
+    Attributes:
+        start_utc: UTC of sim time 0 (the vehicle's clock).
+        latitude_deg: Launch latitude (the local-level origin).
+        longitude_deg: Launch longitude.
+        water_index: Refractive index of the water (from declared salinity, temperature).
+        calibration: The polarimeter's calibration; None for a vehicle without one.
+        imu: Sensor name of the IMU readings.
+        depth: Sensor name of the depth-gauge readings.
+        camera: Sensor name of the polarimeter readings.
+    """
+
+    start_utc: dt.datetime
+    latitude_deg: float
+    longitude_deg: float
+    water_index: float = 1.338
+    calibration: CameraCalibration | None = None
+    imu: str = "imu"
+    depth: str = "depth"
+    camera: str = "polarimeter"
+
+
+@dataclass(frozen=True, slots=True)
+class NavigatorConfig:
+    """How a variant runs.
+
+    Attributes:
+        compass_rate_hz: Frames processed per second (at most the camera's rate).
+        gravity_rate_hz: Gravity-vector updates per second (each uses the mean of the IMU samples
+            since the last one).
+        gravity_aiding: Use gravity updates.
+        depth_aiding: Use depth updates.
+        eskf: Filter parameters.
+    """
+
+    compass_rate_hz: float = 1.0
+    gravity_rate_hz: float = 10.0
+    gravity_aiding: bool = True
+    depth_aiding: bool = True
+    eskf: EskfConfig = field(default_factory=EskfConfig)
+
+    def __post_init__(self) -> None:
+        for name in ("compass_rate_hz", "gravity_rate_hz"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and 0 < v <= 1000):
+                raise ValueError(f"NavigatorConfig.{name}: {v!r}; allowed (0, 1000] Hz")
+
+
+@dataclass(frozen=True, slots=True)
+class CompassEvent:
+    """One processed frame: the fix and what the filter did with it."""
+
+    t: float
+    fix: CompassFix
+    update: UpdateResult | None
+
+
+@functools.lru_cache(maxsize=4096)
+def _sun_enu_cached(utc_iso: str, lat_e6: int, lon_e6: int) -> tuple[float, float, float]:
+    # Variants processing the same frame share one SPA evaluation (5–20 ms each).
+    s = sun_direction_enu(dt.datetime.fromisoformat(utc_iso), lat_e6 * 1e-6, lon_e6 * 1e-6)
+    return (float(s[0]), float(s[1]), float(s[2]))
+
+
+def sun_enu_at(utc: dt.datetime, latitude_deg: float, longitude_deg: float) -> FloatArray:
+    """Ephemeris solar vector (ENU), cached per instant and micro-degree of position."""
+    return np.array(
+        _sun_enu_cached(utc.isoformat(), round(latitude_deg * 1e6), round(longitude_deg * 1e6))
+    )
+
+
+class Navigator:
+    """One filter variant: ``"ins"`` or a compass method name (``"lig"``, ``"pol"``, ...).
+
+    Args:
+        variant: ``"ins"`` or a registered compass method.
+        knowledge: The vehicle's declared knowledge.
+        init: Initial navigation solution (from the launch alignment).
+        config: How it runs.
+    """
+
+    def __init__(
+        self,
+        variant: str,
+        knowledge: VehicleKnowledge,
+        init: NavState,
+        config: NavigatorConfig | None = None,
+    ):
+        self.variant = variant
+        self.knowledge = knowledge
+        self.config = config or NavigatorConfig()
+        self.method = None if variant == INS_ONLY else create(variant)
+        if self.method is not None and knowledge.calibration is None:
+            raise ValueError(
+                f"navigation variant {variant!r} needs a polarimeter calibration; the vehicle "
+                "has none"
+            )
+        self.filter = Eskf(self.config.eskf, init)
+        self._next_gravity_t = init.t + 1.0 / self.config.gravity_rate_hz
+        self._next_compass_t = init.t
+        self.events: list[CompassEvent] = []
+        self.updates: dict[str, int] = {"sun": 0, "sun_rejected": 0, "no_fix": 0, "frames": 0}
+        r_m, r_n = earth.principal_radii(math.radians(knowledge.latitude_deg))
+        self._m_per_rad = (r_m, r_n * math.cos(math.radians(knowledge.latitude_deg)))
+
+    # ---- inputs --------------------------------------------------------------------------------
+    def on_reading(self, reading: Reading) -> CompassEvent | None:
+        """Consume one reading (in delivery order); the compass event when a frame was used."""
+        k = self.knowledge
+        f = self.filter
+        if reading.sensor == k.imu:
+            if reading.t <= f.t:
+                return None  # the first sample at t = 0 only anchors the clock
+            f.predict_reading(reading)
+            if self.config.gravity_aiding and f.t >= self._next_gravity_t - 1e-9:
+                f.update_gravity()
+                self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
+            return None
+        if reading.sensor == k.depth and self.config.depth_aiding:
+            f.update_depth(float(np.asarray(reading["depth_m"]).reshape(-1)[0]))
+            return None
+        if reading.sensor == k.camera and self.method is not None:
+            if reading.t < self._next_compass_t - 1e-9:
+                return None
+            self._next_compass_t = reading.t + 1.0 / self.config.compass_rate_hz
+            return self._compass(reading)
+        return None
+
+    def _compass(self, reading: Reading) -> CompassEvent:
+        assert self.method is not None and self.knowledge.calibration is not None
+        k = self.knowledge
+        est = self.filter.estimate()
+        utc = k.start_utc + dt.timedelta(seconds=reading.t)
+        lat, lon = math.degrees(est.lat_rad), math.degrees(est.lon_rad)
+        ctx = CompassContext(
+            utc=utc,
+            latitude_deg=lat,
+            longitude_deg=lon,
+            roll_rad=est.roll,
+            pitch_rad=max(min(est.pitch, math.pi / 2), -math.pi / 2),
+            depth_m=max(est.depth_m, 0.0),
+            water_index=k.water_index,
+            sun_enu=sun_enu_at(utc, lat, lon),
+        )
+        fix = self.method.solve(reading["raw"], k.calibration, ctx)
+        self.updates["frames"] += 1
+        update = None
+        if fix.ok:
+            update = self.filter.update_sun(fix)
+            self.updates["sun" if update.applied else "sun_rejected"] += 1
+        else:
+            self.updates["no_fix"] += 1
+        event = CompassEvent(reading.t, fix, update)
+        self.events.append(event)
+        return event
+
+    # ---- outputs -------------------------------------------------------------------------------
+    def estimate(self) -> NavEstimate:
+        return self.filter.estimate()
+
+    def local_en(self, est: NavEstimate) -> tuple[float, float]:
+        """Estimated (East, North) in metres from the launch point (the local-level frame)."""
+        k = self.knowledge
+        north = (est.lat_rad - math.radians(k.latitude_deg)) * self._m_per_rad[0]
+        east = (est.lon_rad - math.radians(k.longitude_deg)) * self._m_per_rad[1]
+        return east, north
+
+    @property
+    def rejections(self) -> list:
+        return self.filter.rejections
