@@ -199,6 +199,10 @@ class Navigator:
     def estimate(self) -> NavEstimate:
         return self.filter.estimate()
 
+    def nav_state(self) -> NavState:
+        """The INS solution now (cheap; no covariance)."""
+        return self.filter.nav_state()
+
     def local_en(self, est: NavEstimate) -> tuple[float, float]:
         """Estimated (East, North) in metres from the launch point (the local-level frame)."""
         k = self.knowledge

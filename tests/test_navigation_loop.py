@@ -1,0 +1,143 @@
+"""The onboard filters inside the run loop: paired variants, scoring, recording, closed loop."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rerun.chunk import RrdReader
+
+import scenarios
+from scenarios.schema import Navigation
+from twin.navsources import EstimateNav, TruthNav
+from twin.run import run_scenario
+from twin.world import build_world
+
+
+def _short_trial(duration_s: float = 30.0, variants: tuple[str, ...] = ("ins", "lig")):
+    sc = scenarios.load("sea_trial_10m")
+    return dataclasses.replace(
+        sc,
+        duration_s=duration_s,
+        navigation=dataclasses.replace(sc.navigation, variants=variants),
+        recording=dataclasses.replace(sc.recording, camera=False),
+    )
+
+
+def _entities(rrd: Path) -> dict[str, int]:
+    rows: dict[str, int] = {}
+    for line in RrdReader(rrd).store().summary().splitlines():
+        parts = line.split()
+        if not parts or "static=True" in line:
+            continue
+        n = next((int(p.split("=")[1]) for p in parts if p.startswith("rows=")), 0)
+        rows[parts[0]] = rows.get(parts[0], 0) + n
+    return rows
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory) -> tuple[Path, dict]:
+    out = tmp_path_factory.mktemp("nav")
+    return out, run_scenario(_short_trial(), out, camera=False)
+
+
+def test_every_variant_is_scored_against_truth(short_run) -> None:
+    _, m = short_run
+    nav = m["navigation"]
+    assert nav["steering_on"] == "truth"
+    assert set(nav["variants"]) == {"ins", "lig"}
+    for v in nav["variants"].values():
+        assert v["samples"] == 300  # 30 s of truth at 10 Hz
+        for key in ("heading_rmse_deg", "roll_rmse_deg", "pitch_rmse_deg", "nees_attitude_mean"):
+            assert np.isfinite(v[key])
+        assert v["heading_max_deg"] >= v["heading_rmse_deg"] >= 0.0
+        lo, hi = v["nees_attitude_bounds_95"]
+        assert 0 < lo < 3 < hi
+    lig = nav["variants"]["lig"]["compass"]
+    assert lig["frames"] == 30  # 1 Hz camera and compass, frames at t = 1..30 s
+    assert lig["fixes"] + lig["no_fix"] == lig["frames"]
+    assert lig["sun_updates_applied"] + lig["sun_updates_rejected"] == lig["fixes"] > 20
+    assert nav["variants"]["ins"]["compass"] is None
+    assert nav["variants"]["ins"]["updates_applied"]["sun"] == 0
+
+
+def test_the_recording_holds_the_estimates_errors_and_polarimeter_images(short_run) -> None:
+    out, _ = short_run
+    rows = _entities(out / "recording.rrd")
+    for entity in (
+        "/nav/heading_deg/ins",
+        "/nav/heading_deg/lig",
+        "/nav/lig/heading_error_deg",
+        "/nav/ins/nees_attitude",
+        "/nav/lig/compass_heading_deg",
+        "/polarimeter/aop",
+    ):
+        assert rows.get(entity, 0) > 0, entity
+    assert rows["/nav/heading_deg/lig"] == 300
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["complete"] is True
+
+
+def test_variants_start_from_one_shared_perturbed_alignment() -> None:
+    world = build_world(_short_trial(variants=("ins", "lig")), seed=3)
+    a, b = (world.navigators[v].nav_state() for v in ("ins", "lig"))
+    assert np.array_equal(a.c_bn, b.c_bn) and np.array_equal(a.v_enu, b.v_enu)
+    assert (a.lat_rad, a.lon_rad, a.h_m) == (b.lat_rad, b.lon_rad, b.h_m)
+    truth = world.plant.truth()
+    assert a.heading_deg != pytest.approx(truth.heading_deg, abs=1e-9)  # perturbed by P0
+    other = build_world(_short_trial(variants=("ins", "lig")), seed=4).navigators["ins"]
+    assert not np.array_equal(other.nav_state().c_bn, a.c_bn)
+    exact = _short_trial(variants=("ins",))
+    exact = dataclasses.replace(
+        exact, navigation=dataclasses.replace(exact.navigation, initial_error=False)
+    )
+    s = build_world(exact).navigators["ins"].nav_state()
+    assert s.heading_deg == pytest.approx(truth.heading_deg, abs=1e-9)
+
+
+def test_same_seed_same_navigation_metrics(tmp_path) -> None:
+    sc = _short_trial(duration_s=8.0)
+    a = run_scenario(sc, tmp_path / "a", camera=False)["navigation"]
+    b = run_scenario(sc, tmp_path / "b", camera=False)["navigation"]
+    assert a == b
+
+
+def test_without_a_filter_the_autopilot_steers_on_truth() -> None:
+    world = build_world(scenarios.load("default"))
+    assert world.navigators == {} and isinstance(world.nav, TruthNav)
+
+
+def _closed_loop(variants: tuple[str, ...], steer: str, duration_s: float):
+    sc = scenarios.load("closed_loop_10m")
+    legs = (dataclasses.replace(sc.mission.legs[0], to_m=(0.0, 60.0)),)  # type: ignore[attr-defined]
+    return dataclasses.replace(
+        sc,
+        duration_s=duration_s,
+        mission=dataclasses.replace(sc.mission, legs=legs),
+        navigation=Navigation(variants=variants, steer_on=steer),
+        recording=dataclasses.replace(sc.recording, camera=False),
+    )
+
+
+def test_a_closed_loop_run_on_the_ins_estimate_completes_its_leg(tmp_path) -> None:
+    sc = _closed_loop(("ins",), "ins", 90.0)
+    world = build_world(sc)
+    assert isinstance(world.nav, EstimateNav)
+    assert world.nav.navigator is world.navigators["ins"]
+    m = run_scenario(sc, tmp_path, camera=False)
+    assert m["navigation"]["steering_on"] == "ins"
+    assert m["status"] == "mission_complete"
+    assert m["mission"]["legs_completed"] == 1
+    # The autopilot held depth on the filter's (depth-aided) estimate.
+    assert m["depth_error_rms_m"] < 0.5
+
+
+@pytest.mark.slow
+def test_the_closed_loop_sea_trial_completes_its_mission(tmp_path) -> None:
+    m = run_scenario(scenarios.load("closed_loop_10m"), tmp_path, camera=False)
+    assert m["status"] == "mission_complete", m["status"]
+    assert m["navigation"]["steering_on"] == "lig"
+    assert m["navigation"]["variants"]["lig"]["heading_rmse_deg"] < 10.0
