@@ -28,6 +28,7 @@ from scenarios.schema import (
     CURRENT_KINDS,
     JERLOV_TYPES,
     MISSION_KINDS,
+    NAV_TUNINGS,
     NAV_VARIANTS,
     SCENES,
     SKY_POLARIZATION_MODELS,
@@ -920,6 +921,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
         gravity_aiding=t.boolean("gravity_aiding", default=True),
         depth_aiding=t.boolean("depth_aiding", default=True),
         initial_error=t.boolean("initial_error", default=True),
+        tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
     )
     t.finish()
     if nav is not None and nav.steer_on == "":

@@ -332,6 +332,7 @@ class Optics:
 #: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
 #: aids the filter (POL/INS, LIG/INS, ...).
 NAV_VARIANTS: tuple[str, ...] = ("ins", "lig", "pol", "roia", "snell", "moi", "patz", "ht")
+NAV_TUNINGS: tuple[str, ...] = ("imu", "paper")
 
 
 @dataclass(frozen=True, slots=True)
@@ -348,6 +349,9 @@ class Navigation:
         depth_aiding: Depth-gauge updates of the height.
         initial_error: Start the filters from truth perturbed by a draw from P0 (True), or
             from truth exactly (False).
+        tuning: ``"imu"``: P0 and Q from the declared IMU's datasheet (``EskfConfig.for_imu``);
+            ``"paper"``: the LIG paper's §3.3 values as printed (overconfident for the paper's
+            own IMU model: docs/navigation.md).
     """
 
     variants: tuple[str, ...] = ()
@@ -356,6 +360,7 @@ class Navigation:
     gravity_aiding: bool = True
     depth_aiding: bool = True
     initial_error: bool = True
+    tuning: str = "imu"
 
     @property
     def steering_variant(self) -> str | None:

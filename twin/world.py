@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from twin.frames import heading_deg_to_yaw, quat_to_dcm
 from twin.guidance import Guidance
 from twin.messages import Reading
 from twin.navsources import EstimateNav, NavSource, TruthNav
+from twin.onboard.eskf import EskfConfig, ImuGrade
 from twin.onboard.ins import NavState as InsNavState
 from twin.onboard.ins import rotvec_to_dcm
 from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
@@ -192,6 +194,28 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
     return World(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
 
 
+def _imu_grade(spec: Any) -> ImuGrade:
+    """The vehicle's declared IMU grade: its datasheet (the spec), SI, worst axis."""
+
+    def worst(v: Any) -> float:
+        return float(np.max(np.abs(np.asarray(v, dtype=np.float64))))
+
+    return ImuGrade(
+        gyro_noise_density=worst(spec.gyro_noise_density),
+        gyro_bias_instability=spec.gyro_bias_instability,
+        gyro_bias_corr_time_s=spec.gyro_bias_corr_time_s,
+        gyro_turn_on_bias=spec.gyro_turn_on_bias,
+        gyro_scale_factor=spec.gyro_scale_factor,
+        gyro_misalignment=spec.gyro_misalignment,
+        accel_noise_density=worst(spec.accel_noise_density),
+        accel_bias_instability=spec.accel_bias_instability,
+        accel_bias_corr_time_s=spec.accel_bias_corr_time_s,
+        accel_turn_on_bias=spec.accel_turn_on_bias,
+        accel_scale_factor=spec.accel_scale_factor,
+        accel_misalignment=spec.accel_misalignment,
+    )
+
+
 def _navigators(
     scenario: Scenario, plant: Plant, suite: SensorSuite, seed: np.random.SeedSequence
 ) -> dict[str, Navigator]:
@@ -203,10 +227,13 @@ def _navigators(
     nav = scenario.navigation
     if not nav.variants:
         return {}
+    imu = suite["imu"].spec
+    eskf = EskfConfig() if nav.tuning == "paper" else EskfConfig.for_imu(_imu_grade(imu))
     cfg = NavigatorConfig(
         compass_rate_hz=nav.compass_rate_hz,
         gravity_aiding=nav.gravity_aiding,
         depth_aiding=nav.depth_aiding,
+        eskf=eskf,
     )
     tr = plant.truth()
     c_true = quat_to_dcm(tr.quat_wxyz)

@@ -223,6 +223,7 @@ def test_all_features_file() -> None:
     assert s.navigation.variants == ("ins", "pol", "lig")
     assert s.navigation.steering_variant == "lig"
     assert (s.navigation.compass_rate_hz, s.navigation.depth_aiding) == (2.0, False)
+    assert s.navigation.tuning == "paper"
 
 
 @pytest.mark.parametrize(
@@ -236,6 +237,7 @@ def test_all_features_file() -> None:
         ({"variants": ["ins", "lig"]}, {"no_camera": True}, "navigation.variants", "need a camera"),
         ({"variants": []}, {"estimate": True}, "autopilot.attitude_source", "needs an onboard"),
         ({"varients": ["ins"]}, {}, "navigation.varients", "unknown key"),
+        ({"variants": ["ins"], "tuning": "guess"}, {}, "navigation.tuning", "not one of"),
     ],
 )
 def test_navigation_errors_name_the_field(nav, extra, path, needle) -> None:
