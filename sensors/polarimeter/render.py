@@ -401,6 +401,58 @@ class Polarimeter(Sensor):
         )
         return {"raw": raw, "exposure_us": np.asarray(float(exposure))}
 
+    def render_offline(
+        self,
+        c_cn: NDArray[np.float64],
+        depth_m: float,
+        sun: Any,
+        rng: np.random.Generator,
+        *,
+        t: float = 0.0,
+    ) -> tuple[NDArray[np.uint16], PolarimeterTruth]:
+        """One raw frame for a camera attitude, depth and sun, without a MuJoCo world.
+
+        For studies with known truth (compass accuracy tables, benchmarks, tests): no occlusion,
+        the sensor's fixed pattern drawn from ``rng`` on first use (then kept), temporal noise
+        from ``rng``.
+
+        Args:
+            c_cn: C_c^n, camera → ENU (3×3 rotation).
+            depth_m: Camera depth (≤ 0: in air).
+            sun: A :class:`~sensors.polarimeter.sun.SunPosition` or an ENU unit vector.
+            rng: Generator.
+            t: Time stamp for the truth record.
+
+        Returns:
+            (raw uint16 mosaic, :class:`PolarimeterTruth`).
+        """
+        c = np.asarray(c_cn, dtype=np.float64)
+        if c.shape != (3, 3) or not np.allclose(c @ c.T, np.eye(3), atol=1e-6):
+            raise ValueError("c_cn: must be a 3x3 rotation matrix (camera -> ENU)")
+        if not math.isfinite(depth_m):
+            raise ValueError(f"depth_m: {depth_m!r}; allowed: a finite depth in m")
+        if self._dofp is None:
+            self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng)
+        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
+        if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):
+            raise ValueError("sun: must be a SunPosition or a unit ENU vector")
+        stokes, window, occluded, sun_look = self.render_stokes(
+            None, np.zeros(3), c, float(depth_m), sun
+        )
+        exposure = self._dofp.exposure_for(stokes)
+        raw = self._dofp.render_mosaic(stokes, exposure, rng)
+        sun_px = None
+        if sun_look is not None:
+            u, v, ok = self.camera.project_outside(
+                c.T @ sun_look, self.n_water if depth_m > 0 else 1
+            )
+            sun_px = (float(u), float(v)) if bool(ok) else None
+        night = bool(getattr(sun, "is_night", sun_enu[2] < math.sin(math.radians(-0.833))))
+        truth = PolarimeterTruth(
+            t, stokes, window, occluded, sun_px, sun_enu, float(depth_m), night, float(exposure)
+        )
+        return raw, truth
+
     # ---- the physics chain ---------------------------------------------------------------------
     def render_stokes(
         self,

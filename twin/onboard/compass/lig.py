@@ -1,0 +1,550 @@
+"""LIG: solar vector from the light-intensity gradient inside Snell's window (Hu et al. 2024, §2).
+
+Hu, Liu, Yang, Yu, Xu, Guo, "Underwater autonomous orientation using submarine light intensity
+gradient", Mechatronics 98:103134 (2024), doi:10.1016/j.mechatronics.2023.103134. The premise: the
+radiance falls off with the scattering angle, so at every sky point the intensity gradient g, the
+observation vector l and the solar vector s are coplanar; the plane normals v = l × g are all ⟂ s
+(the "LIG model", the analogue of the Rayleigh E-vector field), and s is the eigenvector of
+Σ v vᵀ with the smallest eigenvalue (eqs. 13–15).
+
+Pipeline per frame (equation numbers of the paper):
+
+1. Intensity I = (I0 + I45 + I90 + I135)/2 (eq. 5), black level subtracted, on an *analysis grid*
+   of m×m raw blocks (m even, the smallest with ≤ ``analysis_max_width_px`` columns): the block
+   mean of the super-pixel S0 of :func:`twin.onboard.polarization.stokes_from_mosaic` (identical
+   for any 0/45/90/135° layout — a test checks it), computed as 2 × the block mean of the raw
+   mosaic because that is ~10× cheaper at full resolution. This is where the method subsamples:
+   the paper's estimator is a per-pixel least-squares sum, so a coarser pixel set changes only
+   the noise, and the block mean is the denoising a binning camera would do anyway.
+2. 2-D median filter (the paper's pre-processing; kernel size not given, 5 here), then the image
+   gradient (3×3 Sobel) → the LIG angle γ and magnitude of each pixel.
+3. In-window pixels (eqs. 6–7): l^h = C_b^h Θ(m, n) with the INS roll/pitch hint (the only use of
+   the attitude hint, as in the paper: the window and the refraction are about the true
+   vertical); r = atan(√(l1² + l2²)/l3) ≤ arcsin(n_a/n_w), n_w = ``ctx.water_index``. A margin
+   (``window_margin_rad``) keeps the median/Sobel support off the window's edge, whose radial
+   step is not a skylight gradient [deviation: the paper uses every in-window pixel].
+4. Plane normals (eqs. 8–12): the paper maps the image angle γ̂ = γ − φ onto the air-side
+   celestial sphere at the refracted-back incidence angle i = arcsin(n_w sin r / n_a) (eq. 11),
+   through C_l^h (eq. 10). Here the same map is done with the exact chain rule: the image
+   gradient (∂I/∂u, ∂I/∂v) is the covector of the sphere gradient G through the Jacobian of
+   pixel → in-water ray (lens model, numerical derivative, cached) → air direction (Snell, in the
+   level frame: meridian stretch n cos r / cos i, azimuthal stretch sin i / sin r); v = d_air × G.
+   For a conformal lens and no refraction this is eq. 12 verbatim; the paper's use of γ̂ as the
+   angle on the air sphere ignores the (large near the window edge) anisotropic stretch of
+   refraction and of the equidistant fisheye, so the exact map is a refinement, not a change of
+   method. Normals are unit vectors (the paper: "the LIG vectors ... are regarded as unit
+   vectors").
+5. s^h = eigenvector of V Vᵀ for κ_min (eqs. 13–15).
+6. Sun/anti-sun (the paper's rule): project ±s^h on the horizontal plane; the one pointing at the
+   half of the window with the higher mean intensity is the sun. When the two halves differ by
+   less than ``ambiguity_min_contrast`` (a sun near the zenith), the sign with s^h_z > 0 (a
+   daytime sun is above the horizon) decides; ``extras`` record both.
+
+Pixels excluded beyond the paper: saturated raw values (and the filter support around them: a
+clipped sun disc has no gradient), pixels outside the lens's image circle, and pixels whose
+gradient is below ``gradient_snr_min`` times the gradient noise (estimated each frame from the
+median filter's residual, MAD). Without the last, noise-dominated gradients, whose normals are
+spread over the plane ⟂ l, vote for the zenith and bias the elevation upwards in dim frames.
+
+Quality figures: ``pixels_used`` = normals in V; ``residual`` = √(κ_min / N), the RMS of vᵀs
+(≈ the RMS angle, rad, by which the planes miss the sun); ``eigen_gap`` = κ_2/κ_min.
+Covariance (tangent plane of s, rad²): first-order perturbation of the smallest eigenvector,
+cov = σ² Σ_{k=2,3} e_k e_kᵀ / κ_k with σ² = κ_min/(N − 2) the per-normal residual variance, scaled
+by the number of analysis pixels one filter footprint correlates (N_eff = N / footprint), plus
+an isotropic floor ``sigma_floor_rad``² for the model error the residual cannot see; rotated to
+the body frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.onboard.calibration import CameraCalibration
+from twin.onboard.compass.base import (
+    CompassContext,
+    CompassFix,
+    finish_fix,
+    no_fix,
+    register,
+)
+from twin.onboard.ephemeris import sun_direction_enu
+
+FloatArray = NDArray[np.float64]
+
+_NIGHT_ELEVATION_RAD = math.radians(-0.833)  # sunset: the upper limb at the horizon
+_MAD_TO_SIGMA = 1.4826
+
+
+# ------------------------------------------------------------------------------------------------
+# Shared by LIG and POL (pol.py imports these).
+# ------------------------------------------------------------------------------------------------
+def check_raw(raw: object, calibration: CameraCalibration) -> NDArray[np.generic]:
+    """Validate a raw mosaic against the calibration; a ValueError/TypeError names the field."""
+    if not isinstance(calibration, CameraCalibration):
+        raise TypeError(
+            f"calibration: {type(calibration).__name__}; allowed: twin.onboard.calibration."
+            "CameraCalibration"
+        )
+    if not isinstance(raw, np.ndarray):
+        raise TypeError(f"raw: {type(raw).__name__}; allowed: a 2-D numpy array (the mosaic)")
+    want = (calibration.height_px, calibration.width_px)
+    if raw.shape != want:
+        raise ValueError(
+            f"raw.shape: {raw.shape}; allowed: {want} = (calibration.height_px, "
+            "calibration.width_px)"
+        )
+    if raw.dtype not in (np.uint8, np.uint16, np.float32, np.float64):
+        raise TypeError(f"raw.dtype: {raw.dtype}; allowed: uint8, uint16, float32, float64")
+    return raw
+
+
+def solar_vector_enu(ctx: CompassContext) -> FloatArray:
+    """The ephemeris solar vector: ``ctx.sun_enu`` when given, else computed (NREL SPA)."""
+    if ctx.sun_enu is not None:
+        s = np.asarray(ctx.sun_enu, dtype=np.float64).reshape(3)
+        return s / np.linalg.norm(s)
+    return sun_direction_enu(ctx.utc, ctx.latitude_deg, ctx.longitude_deg)
+
+
+def analysis_factor(calibration: CameraCalibration, max_width_px: int) -> int:
+    """Raw pixels per analysis pixel: the smallest even m giving ≤ ``max_width_px`` columns."""
+    m = 2
+    while calibration.width_px // m > max_width_px:
+        m += 2
+    return m
+
+
+def _even(n: int) -> int:
+    return n - (n % 2)
+
+
+@dataclass(frozen=True)
+class AnalysisGeometry:
+    """Camera-side geometry of the analysis grid (cached per calibration, block size, port).
+
+    Attributes:
+        cal: The calibration re-expressed on the analysis grid (pixel j ↔ raw m·j + (m−1)/2),
+            so that its ``"interpolate"`` grid, rays and E-vector axes are the analysis pixels'.
+        m: Raw pixels per analysis pixel.
+        rays: (H, W, 3) unit outward directions in the water (camera frame; bent by a flat port).
+        du: (H, W, 3) ∂ray/∂u per analysis pixel.
+        dv: (H, W, 3) ∂ray/∂v per analysis pixel.
+        valid: (H, W) inside the image circle (and through the port).
+    """
+
+    cal: CameraCalibration
+    m: int
+    rays: FloatArray
+    du: FloatArray
+    dv: FloatArray
+    valid: NDArray[np.bool_]
+
+
+def _through_port(rays: FloatArray, cal: CameraCalibration, n_port: float) -> FloatArray:
+    """Lens rays → directions in the water (a flat port bends them by Snell about camera z)."""
+    if cal.housing != "flat" or n_port <= 1.0:
+        return rays
+    rxy = np.hypot(rays[..., 0], rays[..., 1])
+    sin_w = rxy / n_port  # n_air sin θ_lens = n_w sin θ_w
+    cos_w = np.sqrt(np.maximum(1.0 - sin_w * sin_w, 0.0))
+    scale = np.divide(sin_w, rxy, out=np.zeros_like(rxy), where=rxy > 0)
+    return np.stack([rays[..., 0] * scale, rays[..., 1] * scale, cos_w], axis=-1)
+
+
+@functools.lru_cache(maxsize=16)
+def analysis_geometry(
+    calibration: CameraCalibration, m: int, n_port: float = 1.0
+) -> AnalysisGeometry:
+    """The analysis-grid calibration, rays and ray Jacobian (cached: calibrations are hashable)."""
+    c = calibration
+    w, h = _even(c.width_px // m), _even(c.height_px // m)
+    shift = (m - 1) / 2.0
+    cu, cv = c.principal_point_px
+    cal_a = dataclasses.replace(
+        c,
+        width_px=w,
+        height_px=h,
+        focal_px=c.focal_px / m,
+        principal_point_px=((cu - shift) / m, (cv - shift) / m),
+        pixel_pitch_um=c.pixel_pitch_um * m,
+    )
+    u, v = cal_a.grid("interpolate")
+    rays, valid = cal_a.pixel_to_ray(u, v)
+    eps = 0.25  # analysis pixels: central differences, exact to O(eps²) for the smooth lens model
+    rp = _through_port(cal_a.pixel_to_ray(u + eps, v)[0], c, n_port)
+    rm = _through_port(cal_a.pixel_to_ray(u - eps, v)[0], c, n_port)
+    du = (rp - rm) / (2 * eps)
+    rp = _through_port(cal_a.pixel_to_ray(u, v + eps)[0], c, n_port)
+    rm = _through_port(cal_a.pixel_to_ray(u, v - eps)[0], c, n_port)
+    dv = (rp - rm) / (2 * eps)
+    out = _through_port(rays, c, n_port)
+    if c.housing == "flat":
+        valid = valid & (rays[..., 2] > 1e-6)  # a flat port sees nothing beyond 90° off-axis
+    for a in (out, du, dv, valid):
+        a.setflags(write=False)
+    return AnalysisGeometry(cal_a, m, out, du, dv, valid)
+
+
+def block_intensity(
+    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    """I (eq. 5) on the analysis grid, DN above black level, and its block-saturation mask."""
+    m = geo.m
+    h, w = geo.cal.height_px, geo.cal.width_px
+    r = raw[: h * m, : w * m]
+    rf = r.astype(np.float32)
+    s0 = cv2.resize(rf, (w, h), interpolation=cv2.INTER_AREA)
+    # S0 = ½ ΣI_k over one of each analyser = 2 × the block mean of the mosaic.
+    s0 = 2.0 * (s0 - np.float32(calibration.black_level_dn))
+    return s0, block_saturation(raw, calibration, geo)
+
+
+def block_saturation(
+    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+) -> NDArray[np.bool_]:
+    """Analysis pixels whose m×m raw block holds a clipped value (≥ ``saturation_dn``)."""
+    m = geo.m
+    h, w = geo.cal.height_px, geo.cal.width_px
+    sat = (raw[: h * m, : w * m] >= calibration.saturation_dn).view(np.uint8) * np.uint8(255)
+    # 255 per clipped pixel so that INTER_AREA's rounded block mean cannot round one away.
+    return cv2.resize(sat, (w, h), interpolation=cv2.INTER_AREA) > 0
+
+
+def level_rotation(calibration: CameraCalibration, ctx: CompassContext) -> FloatArray:
+    """C_c^h = C_b^h · C_c^b: camera → horizontal frame from the roll/pitch hint (eq. 6)."""
+    return ctx.c_b_h @ calibration.c_c_b
+
+
+def critical_angle(water_index: float) -> float:
+    """Snell's window half-angle arcsin(n_a/n_w), n_a = 1 (eq. 7's threshold)."""
+    return math.asin(1.0 / water_index) if water_index > 1.0 else math.pi / 2
+
+
+def meridian_basis(d: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(e_θ, e_φ) at directions d (…, 3): e_θ along increasing zenith angle, e_φ = ẑ × d / |…|.
+
+    At the zenith (undefined meridian) x̂ and ŷ are used; (d, e_θ, e_φ) is right-handed.
+    """
+    rxy = np.hypot(d[..., 0], d[..., 1])
+    safe = rxy > 1e-12
+    cphi = np.where(safe, d[..., 0] / np.where(safe, rxy, 1.0), 1.0)
+    sphi = np.where(safe, d[..., 1] / np.where(safe, rxy, 1.0), 0.0)
+    z = d[..., 2]
+    e_t = np.stack([z * cphi, z * sphi, -rxy], axis=-1)
+    e_p = np.stack([-sphi, cphi, np.zeros_like(z)], axis=-1)
+    return e_t, e_p
+
+
+def refract_to_air(p_h: FloatArray, n_w: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """In-water look directions (level frame) → the air directions they see (eq. 11).
+
+    Returns (d_air, sin r, sin i); same azimuth, sin i = n_w sin r (clipped at 1).
+    """
+    sin_r = np.hypot(p_h[..., 0], p_h[..., 1])
+    sin_i = np.minimum(n_w * sin_r, 1.0)
+    cos_i = np.sqrt(np.maximum(1.0 - sin_i * sin_i, 0.0))
+    scale = np.divide(sin_i, sin_r, out=np.full_like(sin_r, n_w), where=sin_r > 1e-12)
+    d = np.stack([p_h[..., 0] * scale, p_h[..., 1] * scale, cos_i], axis=-1)
+    return d, sin_r, sin_i
+
+
+def refract_back(s_w: FloatArray, n_w: float) -> FloatArray:
+    """The air direction of a refracted (in-water) sun: same azimuth, sin θ_a = n sin θ_w."""
+    rxy = math.hypot(s_w[0], s_w[1])
+    if rxy < 1e-12:
+        return s_w.copy()
+    sa = min(n_w * rxy, 1.0)
+    ca = math.copysign(math.sqrt(max(1.0 - sa * sa, 0.0)), s_w[2])
+    return np.array([s_w[0] / rxy * sa, s_w[1] / rxy * sa, ca])
+
+
+@dataclass(frozen=True)
+class EigenSolution:
+    """Smallest-eigenvector solution of Σ w v vᵀ (eqs. 13–15)."""
+
+    s: FloatArray
+    eigenvalues: FloatArray  # ascending, of the normalised matrix (Σ w v vᵀ / Σ w)
+    eigenvectors: FloatArray  # columns, matching eigenvalues
+    n: int
+
+    @property
+    def residual(self) -> float:
+        """RMS of vᵀs (weighted), ≈ the RMS angle by which the constraints miss s."""
+        return float(math.sqrt(max(self.eigenvalues[0], 0.0)))
+
+    @property
+    def eigen_gap(self) -> float:
+        """κ_2 / κ_min (≥ 1, large = well conditioned; capped at 1e12)."""
+        return float(
+            min(self.eigenvalues[1] / max(self.eigenvalues[0], 1e-12 * self.eigenvalues[1]), 1e12)
+        )
+
+    def covariance(self, footprint: float, sigma_floor_rad: float) -> FloatArray:
+        """Tangent-plane covariance of s (rad²), first-order perturbation (module docstring)."""
+        lam, e = self.eigenvalues, self.eigenvectors
+        n_eff = max(self.n / max(footprint, 1.0), 3.0)
+        sigma2 = max(lam[0], 0.0) * self.n / max(self.n - 2, 1)  # per-constraint variance
+        cov = np.zeros((3, 3))
+        for k in (1, 2):
+            cov += np.outer(e[:, k], e[:, k]) * (sigma2 / (n_eff * max(lam[k], 1e-12)))
+        t = np.eye(3) - np.outer(self.s, self.s)  # floor on the tangent plane only
+        return cov + (sigma_floor_rad**2) * t
+
+
+def smallest_eigenvector(vecs: FloatArray, weights: FloatArray | None = None) -> EigenSolution:
+    """S minimising Σ w (vᵀs)² with |s| = 1 (eq. 14): eigenvector of κ_min (eq. 15)."""
+    if weights is None:
+        mat = vecs.T @ vecs / len(vecs)
+    else:
+        wsum = float(np.sum(weights))
+        mat = (vecs * weights[:, None]).T @ vecs / wsum
+    lam, e = np.linalg.eigh(mat)
+    return EigenSolution(e[:, 0].copy(), lam, e, len(vecs))
+
+
+def night_or_none(ctx: CompassContext, sun_enu: FloatArray, method: str) -> CompassFix | None:
+    if sun_enu[2] < math.sin(_NIGHT_ELEVATION_RAD):
+        return no_fix(method, "night: the sun is below the horizon")
+    return None
+
+
+def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
+    if radius <= 0 or not mask.any():
+        return mask
+    k = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+    return cv2.dilate(mask.view(np.uint8), k).astype(bool)
+
+
+# ------------------------------------------------------------------------------------------------
+# LIG
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LigConfig:
+    """LIG settings (paper defaults where it gives any).
+
+    Attributes:
+        median_ksize: 2-D median filter kernel (the paper's pre-filter; size not stated). 3 or 5
+            (OpenCV's limit for float images).
+        analysis_max_width_px: Columns of the analysis grid at most (module docstring, step 1).
+        window_margin_rad: Pixels within this of Snell's window edge are left out (filter
+            support off the edge step) [not in the paper].
+        gradient_snr_min: Keep pixels whose gradient is ≥ this × the gradient noise.
+        min_pixels: Fewer usable normals ⇒ no fix.
+        min_signal_dn: Mean in-window I (DN above black) below this ⇒ "too dark" no fix.
+        min_eigen_gap: κ_2/κ_min below this ⇒ ill-conditioned, no fix.
+        ambiguity_min_contrast: Relative intensity difference of the two window halves below
+            which the sign falls back to s^h_z > 0.
+        sigma_floor_rad: Isotropic floor of the covariance (model error), rad.
+        sphere: ``"air"`` — the paper: normals on the air-side celestial sphere through the
+            refraction of eq. 11; ``"water"`` — normals on the in-water sphere, the refracted sun
+            found first and refracted back to air (a variant for scattering-dominated water).
+        weighting: ``"unit"`` — the paper's unit normals; ``"gradient"`` — weighted by the
+            relative gradient |∇I|/I on the sphere (a variant).
+    """
+
+    median_ksize: int = 5
+    analysis_max_width_px: int = 640
+    window_margin_rad: float = math.radians(4.0)
+    gradient_snr_min: float = 3.0
+    min_pixels: int = 200
+    min_signal_dn: float = 8.0
+    min_eigen_gap: float = 1.5
+    ambiguity_min_contrast: float = 0.02
+    sigma_floor_rad: float = math.radians(0.5)
+    sphere: str = "air"
+    weighting: str = "unit"
+
+    def __post_init__(self) -> None:
+        if self.sphere not in ("air", "water"):
+            raise ValueError(f"LigConfig.sphere: {self.sphere!r}; allowed: 'air', 'water'")
+        if self.weighting not in ("unit", "gradient"):
+            raise ValueError(
+                f"LigConfig.weighting: {self.weighting!r}; allowed: 'unit', 'gradient'"
+            )
+        if self.median_ksize not in (1, 3, 5):
+            raise ValueError(f"LigConfig.median_ksize: {self.median_ksize!r}; allowed: 1, 3, 5")
+        if not (isinstance(self.analysis_max_width_px, int) and self.analysis_max_width_px >= 16):
+            raise ValueError(
+                f"LigConfig.analysis_max_width_px: {self.analysis_max_width_px!r}; "
+                "allowed: an integer >= 16"
+            )
+        for name, lo, hi in (
+            ("window_margin_rad", 0.0, 0.5),
+            ("gradient_snr_min", 0.0, 1e3),
+            ("min_signal_dn", 0.0, 1e9),
+            ("min_eigen_gap", 1.0, 1e9),
+            ("ambiguity_min_contrast", 0.0, 1.0),
+            ("sigma_floor_rad", 0.0, 1.0),
+        ):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"LigConfig.{name}: {v!r}; allowed: [{lo:g}, {hi:g}]")
+        if not (isinstance(self.min_pixels, int) and self.min_pixels >= 3):
+            raise ValueError(f"LigConfig.min_pixels: {self.min_pixels!r}; allowed: >= 3")
+
+
+def resolve_by_intensity(
+    s_h: FloatArray, p_h: FloatArray, intensity: FloatArray, min_contrast: float
+) -> tuple[FloatArray, float, bool]:
+    """The paper's sun/anti-sun rule (end of §2); returns (s, contrast, decided_by_intensity).
+
+    ``p_h`` are the in-window look directions (level frame) and ``intensity`` their values; the
+    half of the window that s_p = (s1, s2) points at is compared with the other half.
+    """
+    sp = s_h[:2]
+    if math.hypot(sp[0], sp[1]) < 1e-9:  # sun at the zenith: nothing to compare
+        return (s_h if s_h[2] >= 0 else -s_h), 0.0, False
+    side = p_h[:, :2] @ sp > 0
+    n_pos, n_neg = int(side.sum()), int((~side).sum())
+    if n_pos == 0 or n_neg == 0:
+        return (s_h if s_h[2] >= 0 else -s_h), 0.0, False
+    i_pos = float(intensity[side].mean())
+    i_neg = float(intensity[~side].mean())
+    contrast = (i_pos - i_neg) / max(i_pos + i_neg, 1e-30)
+    if abs(contrast) < min_contrast:
+        return (s_h if s_h[2] >= 0 else -s_h), contrast, False
+    return (s_h if contrast > 0 else -s_h), contrast, True
+
+
+@register
+class LigCompass:
+    """Light-intensity-gradient solar tracking (Hu et al. 2024, §2, eqs. 5–15)."""
+
+    name = "lig"
+
+    def __init__(self, config: LigConfig | None = None) -> None:
+        self.config = config or LigConfig()
+
+    def solve(
+        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
+    ) -> CompassFix:
+        cfg = self.config
+        raw = check_raw(raw, calibration)
+        sun_enu = solar_vector_enu(ctx)
+        night = night_or_none(ctx, sun_enu, self.name)
+        if night is not None:
+            return night
+        n_w = float(ctx.water_index)
+        m = analysis_factor(calibration, cfg.analysis_max_width_px)
+        geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
+        intensity, sat = block_intensity(raw, calibration, geo)
+
+        # Eqs. 6–7: in-window pixels from the attitude hint.
+        c_c_h = level_rotation(calibration, ctx)
+        cos_r = geo.rays @ c_c_h[2]  # l^h(3) per pixel
+        theta_c = critical_angle(n_w)
+        in_window = geo.valid & (cos_r > math.cos(theta_c))
+        core = geo.valid & (cos_r > math.cos(max(theta_c - cfg.window_margin_rad, 0.0)))
+        n_window = int(in_window.sum())
+        if n_window < cfg.min_pixels:
+            return no_fix(self.name, "Snell's window is (almost) out of view", n_window)
+        mean_i = float(intensity[in_window].mean())
+        if not (mean_i >= cfg.min_signal_dn):
+            return no_fix(
+                self.name,
+                f"too dark: mean in-window intensity {mean_i:.3g} DN < {cfg.min_signal_dn:g}",
+                n_window,
+                mean_intensity_dn=mean_i,
+            )
+
+        # Median filter, then the image gradient (the LIG vectors, §2).
+        filt = cv2.medianBlur(intensity, cfg.median_ksize) if cfg.median_ksize > 1 else intensity
+        gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+        gy = cv2.Sobel(filt, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+        # Noise: MAD of the median filter's residual in the window; the Sobel (scale 1/8) of a
+        # k×k median has a per-component std ≈ σ · √(12)/8 · √(π/2)/k (median of k² ≈ 1.25σ/k).
+        k = max(cfg.median_ksize, 1)
+        resid = (intensity - filt)[core]
+        sigma = _MAD_TO_SIGMA * float(np.median(np.abs(resid - np.median(resid))))
+        sigma_g = sigma * math.sqrt(12.0) / 8.0 * math.sqrt(math.pi / 2.0) / k
+        gmag2 = gx * gx + gy * gy
+        radius = k // 2 + 1  # median + Sobel support
+        bad = dilate(sat, radius) | dilate(~geo.valid, radius)
+        use = core & ~bad & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
+        idx = np.flatnonzero(use)
+        if idx.size < cfg.min_pixels:
+            return no_fix(
+                self.name,
+                f"too few pixels with a usable gradient: {idx.size} < {cfg.min_pixels}",
+                int(idx.size),
+            )
+
+        # Eqs. 8–12 by the chain rule: image covector → sphere gradient on the air side → normal.
+        p_c = geo.rays.reshape(-1, 3)[idx]
+        p_h = p_c @ c_c_h.T
+        du_h = geo.du.reshape(-1, 3)[idx] @ c_c_h.T
+        dv_h = geo.dv.reshape(-1, 3)[idx] @ c_c_h.T
+        n_sphere = n_w if cfg.sphere == "air" else 1.0
+        d_air, sin_r, sin_i = refract_to_air(p_h, n_sphere)
+        e_t, e_p = meridian_basis(p_h)  # same azimuth ⇒ e_φ is shared by water and air sides
+        cos_r_s = p_h[:, 2]
+        cos_i = d_air[:, 2]
+        # Meridian stretch di/dr = n cos r / cos i, azimuthal stretch sin i / sin r (eq. 11).
+        st = n_sphere * cos_r_s / np.maximum(cos_i, 1e-6)
+        sp = np.divide(sin_i, sin_r, out=np.full_like(sin_r, n_sphere), where=sin_r > 1e-9)
+        a1 = np.einsum("ij,ij->i", du_h, e_t) * st
+        a2 = np.einsum("ij,ij->i", du_h, e_p) * sp
+        b1 = np.einsum("ij,ij->i", dv_h, e_t) * st
+        b2 = np.einsum("ij,ij->i", dv_h, e_p) * sp
+        gu = gx.reshape(-1)[idx].astype(np.float64)
+        gv = gy.reshape(-1)[idx].astype(np.float64)
+        det = a1 * b2 - a2 * b1
+        g1 = (gu * b2 - gv * a2) / det  # sphere gradient along e_i (air meridian)
+        g2 = (a1 * gv - b1 * gu) / det  # along e_φ
+        e_i, _ = meridian_basis(d_air)
+        normals = g1[:, None] * e_p - g2[:, None] * e_i  # d × (g1 e_i + g2 e_φ), (d, e_i, e_φ) RH
+        nn = np.linalg.norm(normals, axis=1)
+        ok = np.isfinite(nn) & (nn > 0)
+        normals = normals[ok] / nn[ok, None]
+        if len(normals) < cfg.min_pixels:
+            return no_fix(self.name, "too few pixels with a usable gradient", len(normals))
+        weights = None
+        if cfg.weighting == "gradient":
+            ival = np.maximum(filt.reshape(-1)[idx][ok].astype(np.float64), 1e-6)
+            weights = nn[ok] / ival
+
+        sol = smallest_eigenvector(normals, weights)  # eqs. 13–15
+        if not (sol.eigen_gap >= cfg.min_eigen_gap):
+            return no_fix(
+                self.name,
+                f"ill-conditioned: eigen gap {sol.eigen_gap:.3g} < {cfg.min_eigen_gap:g}",
+                sol.n,
+                eigen_gap=sol.eigen_gap,
+            )
+        win_idx = np.flatnonzero(in_window)
+        s_h, contrast, by_intensity = resolve_by_intensity(
+            sol.s,
+            geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T,
+            filt.reshape(-1)[win_idx],
+            cfg.ambiguity_min_contrast,
+        )
+        if cfg.sphere == "water":
+            s_h = refract_back(s_h, n_w)
+        c_b_h = ctx.c_b_h
+        sun_body = c_b_h.T @ s_h
+        footprint = float((k + 2) ** 2)  # analysis pixels sharing one median+Sobel support
+        cov_h = sol.covariance(footprint, cfg.sigma_floor_rad)
+        cov_b = c_b_h.T @ cov_h @ c_b_h
+        return finish_fix(
+            self.name,
+            sun_body,
+            ctx,
+            sun_enu,
+            cov_b,
+            pixels_used=sol.n,
+            residual=sol.residual,
+            eigen_gap=sol.eigen_gap,
+            ambiguity_contrast=contrast,
+            ambiguity_by_intensity=float(by_intensity),
+            ambiguity_agrees_with_elevation=float(s_h[2] >= 0),
+            analysis_block_px=float(m),
+            gradient_noise_dn=sigma_g,
+            mean_intensity_dn=mean_i,
+        )

@@ -1,0 +1,266 @@
+"""POL: the E-vector solar vector with refraction compensation inside Snell's window.
+
+The baseline of the LIG paper (Hu et al. 2024, Mechatronics 98:103134, its ref. [22]: Hu, Yang,
+Guo, Yu, Li, "Solar-tracking methodology based on refraction-polarization in Snell's window for
+underwater navigation", Chin. J. Aeronaut. 35(3):380–389, 2022). Ref. [22] itself is not in the
+seeds; what the LIG paper says of it (Remark 1: the refraction is compensated "from two aspects":
+the bending of the ray by Snell's law and the deflection of the polarization plane by the Fresnel
+equations) and optics.md §2.7 (inverting the full Fresnel (I, Q, U) block is exact, correcting
+only the AoP is biased for partially polarized light) define the method implemented here:
+
+1. Stokes S0, S1, S2 → AoP, DoP with :func:`twin.onboard.polarization.stokes_from_mosaic` on the
+   analysis grid (the raw mosaic binned m/2 × m/2 per analyser phase first, which equals the
+   block mean of the super-pixel Stokes because the inversion is linear — and costs a quarter).
+2. In-window pixels with the attitude hint, eqs. 6–7 of the LIG paper (as in LIG; same margin).
+3. Each pixel's AoP → 3-D E-vector in the camera frame (``CameraCalibration.evectors``, the lens's
+   polarization mapping) → level frame (C_b^h C_c^b) → its angle ψ_w from the in-water meridian
+   plane (the plane of incidence at the surface) → normalised Stokes (Q, U)/I = P(cos 2ψ_w,
+   sin 2ψ_w) → the air-side Stokes by the inverse of the Fresnel transmission block
+   [[A, B], [B, A]] ⊕ t_p t_s (A, B = (t_p² ± t_s²)/2, eq. 11's incidence angle i; optics.md §2.2):
+   (Q_a, U_a) ∝ (A Q − B, t_p t_s U), ψ_a = ½ atan2(U_a, Q_a) → the air E-vector
+   cos ψ_a e_i + sin ψ_a e_φ at the pixel's air direction (Snell: same azimuth, sin i = n sin r).
+4. Rayleigh: every air E-vector ⟂ s; s^h = the eigenvector of Σ e eᵀ for the smallest eigenvalue
+   (the same estimator as the LIG paper's eqs. 13–15; its ref. [15]).
+5. Sun/anti-sun: the E-vector constraint is blind to the sign; a daytime sun is above the horizon,
+   so s^h_z > 0. The LIG paper's intensity rule is evaluated too and reported in ``extras``
+   (``ambiguity_contrast``; ``ambiguity_agrees_with_intensity``).
+
+Pixels used: in the window (margin as LIG), not saturated, DoP ≥ ``min_dop`` (the AoP of a nearly
+unpolarised pixel is noise). Unit constraints by default (as eq. 13; ``weighting="dop"`` weights
+by the measured DoP). The multiple-scattering "equivalent incident light" of the world model
+(docs/polarimeter.md) shifts the E-vector pattern's effective sun towards the zenith with depth
+and turbidity — by design this method then reports a biased elevation; that is the effect the
+LIG paper measures, not a defect to hide here.
+
+Quality figures as in :mod:`~twin.onboard.compass.lig` (``residual`` = RMS of eᵀs, ``eigen_gap``
+= κ_2/κ_min, covariance from the eigen-perturbation with one analysis pixel per independent
+constraint plus the floor).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.onboard.calibration import CameraCalibration
+from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
+from twin.onboard.compass.lig import (
+    AnalysisGeometry,
+    analysis_factor,
+    analysis_geometry,
+    block_saturation,
+    check_raw,
+    critical_angle,
+    level_rotation,
+    meridian_basis,
+    night_or_none,
+    refract_to_air,
+    resolve_by_intensity,
+    smallest_eigenvector,
+    solar_vector_enu,
+)
+from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
+
+
+@dataclass(frozen=True)
+class PolConfig:
+    """POL settings.
+
+    Attributes:
+        analysis_max_width_px: Columns of the analysis grid at most.
+        window_margin_rad: Pixels within this of the window edge are left out (as LIG).
+        min_dop: Pixels with a lower DoP are left out.
+        fresnel: Invert the Fresnel (I, Q, U) block (ref. [22]'s second aspect); False keeps
+            only the Snell bending of the ray (an ablation).
+        weighting: ``"unit"`` (as eq. 13) or ``"dop"``.
+        min_pixels: Fewer usable pixels ⇒ no fix.
+        min_signal_dn: Mean in-window S0 below this ⇒ "too dark".
+        min_eigen_gap: κ_2/κ_min below this ⇒ ill-conditioned.
+        sigma_floor_rad: Isotropic covariance floor (model error), rad.
+    """
+
+    analysis_max_width_px: int = 640
+    window_margin_rad: float = math.radians(4.0)
+    min_dop: float = 0.02
+    fresnel: bool = True
+    weighting: str = "unit"
+    min_pixels: int = 200
+    min_signal_dn: float = 8.0
+    min_eigen_gap: float = 1.5
+    sigma_floor_rad: float = math.radians(0.5)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.analysis_max_width_px, int) and self.analysis_max_width_px >= 16):
+            raise ValueError(
+                f"PolConfig.analysis_max_width_px: {self.analysis_max_width_px!r}; "
+                "allowed: an integer >= 16"
+            )
+        if self.weighting not in ("unit", "dop"):
+            raise ValueError(f"PolConfig.weighting: {self.weighting!r}; allowed: 'unit', 'dop'")
+        for name, lo, hi in (
+            ("window_margin_rad", 0.0, 0.5),
+            ("min_dop", 0.0, 1.0),
+            ("min_signal_dn", 0.0, 1e9),
+            ("min_eigen_gap", 1.0, 1e9),
+            ("sigma_floor_rad", 0.0, 1.0),
+        ):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"PolConfig.{name}: {v!r}; allowed: [{lo:g}, {hi:g}]")
+        if not (isinstance(self.min_pixels, int) and self.min_pixels >= 3):
+            raise ValueError(f"PolConfig.min_pixels: {self.min_pixels!r}; allowed: >= 3")
+
+
+def binned_stokes(
+    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+) -> PolarizationImage:
+    """Stokes on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion."""
+    m = geo.m
+    h, w = geo.cal.height_px, geo.cal.width_px
+    kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
+    if m == 2:
+        return stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
+    r = raw[: h * m, : w * m]
+    mos = np.empty((2 * h, 2 * w), np.float32)
+    for i in range(2):
+        for j in range(2):
+            plane = r[i::2, j::2].astype(np.float32)
+            mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
+    return stokes_from_mosaic(mos, **kwargs)
+
+
+def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDArray, NDArray]:
+    """Air → water amplitude transmission (t_s, t_p) at incidence i, refraction r (optics §2.2)."""
+    t_s = 2.0 * cos_i / (cos_i + n_w * cos_r)
+    t_p = 2.0 * cos_i / (n_w * cos_i + cos_r)
+    return t_s, t_p
+
+
+@register
+class PolCompass:
+    """E-vector solar tracking with Snell + Fresnel compensation (LIG paper's ref. [22])."""
+
+    name = "pol"
+
+    def __init__(self, config: PolConfig | None = None) -> None:
+        self.config = config or PolConfig()
+
+    def solve(
+        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
+    ) -> CompassFix:
+        cfg = self.config
+        raw = check_raw(raw, calibration)
+        sun_enu = solar_vector_enu(ctx)
+        night = night_or_none(ctx, sun_enu, self.name)
+        if night is not None:
+            return night
+        n_w = float(ctx.water_index)
+        m = analysis_factor(calibration, cfg.analysis_max_width_px)
+        geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
+        pol = binned_stokes(raw, calibration, geo)
+        sat = block_saturation(raw, calibration, geo)
+
+        c_c_h = level_rotation(calibration, ctx)
+        cos_r = geo.rays @ c_c_h[2]
+        theta_c = critical_angle(n_w)
+        in_window = geo.valid & (cos_r > math.cos(theta_c))
+        core = geo.valid & (cos_r > math.cos(max(theta_c - cfg.window_margin_rad, 0.0)))
+        n_window = int(in_window.sum())
+        if n_window < cfg.min_pixels:
+            return no_fix(self.name, "Snell's window is (almost) out of view", n_window)
+        mean_i = float(pol.s0[in_window].mean())
+        if not (mean_i >= cfg.min_signal_dn):
+            return no_fix(
+                self.name,
+                f"too dark: mean in-window intensity {mean_i:.3g} DN < {cfg.min_signal_dn:g}",
+                n_window,
+                mean_intensity_dn=mean_i,
+            )
+        use = core & ~sat & (pol.s0 > 0) & (pol.dop >= cfg.min_dop)
+        idx = np.flatnonzero(use)
+        if idx.size < cfg.min_pixels:
+            return no_fix(
+                self.name,
+                f"too few polarized pixels: {idx.size} < {cfg.min_pixels} with DoP >= "
+                f"{cfg.min_dop:g}",
+                int(idx.size),
+            )
+
+        # AoP → 3-D E-vector (lens mapping), camera frame; through a flat port the components
+        # in the camera-meridional basis are carried over to the bent ray (port Fresnel ignored).
+        aop = pol.aop.reshape(-1)[idx].astype(np.float64)
+        lens_rays = geo.cal.rays("interpolate")[0].reshape(-1, 3)[idx]
+        e_c = _evectors_at(geo.cal, aop, idx)
+        p_c = geo.rays.reshape(-1, 3)[idx]
+        if calibration.housing == "flat":
+            lt, lp = meridian_basis(lens_rays)
+            wt, wp = meridian_basis(p_c)
+            a = np.einsum("ij,ij->i", e_c, lt)
+            b = np.einsum("ij,ij->i", e_c, lp)
+            e_c = a[:, None] * wt + b[:, None] * wp
+        p_h = p_c @ c_c_h.T
+        e_h = e_c @ c_c_h.T
+        e_t, e_p = meridian_basis(p_h)
+        psi_w = np.arctan2(np.einsum("ij,ij->i", e_h, e_p), np.einsum("ij,ij->i", e_h, e_t))
+        dop = pol.dop.reshape(-1)[idx].astype(np.float64)
+        d_air, _, _ = refract_to_air(p_h, n_w)
+        if cfg.fresnel:
+            t_s, t_p = fresnel_amplitudes(d_air[:, 2], p_h[:, 2], n_w)
+            big_a = 0.5 * (t_p * t_p + t_s * t_s)
+            big_b = 0.5 * (t_p * t_p - t_s * t_s)
+            q_a = big_a * dop * np.cos(2 * psi_w) - big_b
+            u_a = t_p * t_s * dop * np.sin(2 * psi_w)
+            psi_a = 0.5 * np.arctan2(u_a, q_a)
+        else:
+            psi_a = psi_w
+        e_i, e_phi = meridian_basis(d_air)
+        evec = np.cos(psi_a)[:, None] * e_i + np.sin(psi_a)[:, None] * e_phi
+        weights = dop if cfg.weighting == "dop" else None
+        sol = smallest_eigenvector(evec, weights)
+        if not (sol.eigen_gap >= cfg.min_eigen_gap):
+            return no_fix(
+                self.name,
+                f"ill-conditioned: eigen gap {sol.eigen_gap:.3g} < {cfg.min_eigen_gap:g}",
+                sol.n,
+                eigen_gap=sol.eigen_gap,
+            )
+        s_h = sol.s if sol.s[2] >= 0 else -sol.s  # daytime: the sun is above the horizon
+        win_idx = np.flatnonzero(in_window)
+        _, contrast, _ = resolve_by_intensity(
+            s_h, geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T, pol.s0.reshape(-1)[win_idx], 0.0
+        )
+        c_b_h = ctx.c_b_h
+        cov_b = c_b_h.T @ sol.covariance(1.0, cfg.sigma_floor_rad) @ c_b_h
+        return finish_fix(
+            self.name,
+            c_b_h.T @ s_h,
+            ctx,
+            sun_enu,
+            cov_b,
+            pixels_used=sol.n,
+            residual=sol.residual,
+            eigen_gap=sol.eigen_gap,
+            ambiguity_contrast=contrast,
+            ambiguity_agrees_with_intensity=float(contrast >= 0),
+            analysis_block_px=float(m),
+            mean_dop=float(dop.mean()),
+            mean_intensity_dn=mean_i,
+        )
+
+
+def _evectors_at(cal: CameraCalibration, aop: NDArray, idx: NDArray) -> NDArray:
+    """``cal.evectors`` at the selected analysis pixels only (the calibration's own mapping)."""
+    if cal.polarization_mapping == "meridional":
+        # evectors' own formula, cos ψ r_s + sin ψ t_s, on the cached axes of the chosen pixels.
+        r_s, t_s = cal.sensor_axes("interpolate")
+        r_s, t_s = r_s.reshape(-1, 3)[idx], t_s.reshape(-1, 3)[idx]
+        return np.cos(aop)[:, None] * r_s + np.sin(aop)[:, None] * t_s
+    full = np.zeros(cal.height_px * cal.width_px)
+    full[idx] = aop
+    return cal.evectors(full.reshape(cal.height_px, cal.width_px), "interpolate").reshape(-1, 3)[
+        idx
+    ]
