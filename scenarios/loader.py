@@ -184,6 +184,7 @@ ZENITH_RADIANCE = Range(0.0, 10.0, lo_open=True)
 TURBIDITY = Range(0.0, 50.0, lo_open=True)
 WIND_SPEED_MPS = Range(0.0, 30.0)
 WAVELENGTH_NM = Range(400.0, 700.0)
+GATE_PROBABILITY = Range(0.5, 1.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
 TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
 TANK_NORTH_M = Range(-TANK_WIDTH_M / 2, TANK_WIDTH_M / 2, lo_open=True, hi_open=True)
@@ -921,6 +922,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
         gravity_aiding=t.boolean("gravity_aiding", default=True),
         depth_aiding=t.boolean("depth_aiding", default=True),
         initial_error=t.boolean("initial_error", default=True),
+        gate_probability=t.number("gate_probability", GATE_PROBABILITY, default=0.999),
         tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
     )
     t.finish()

@@ -349,6 +349,9 @@ class Navigation:
         depth_aiding: Depth-gauge updates of the height.
         initial_error: Start the filters from truth perturbed by a draw from P0 (True), or
             from truth exactly (False).
+        gate_probability: Chi-square probability of the innovation (NIS) gate; a measurement
+            whose NIS exceeds that quantile is rejected and recorded. 1.0 turns gating off (every
+            measurement is fused, as the LIG paper's filter does).
         tuning: ``"imu"``: P0 and Q from the declared IMU's datasheet (``EskfConfig.for_imu``);
             ``"paper"``: the LIG paper's §3.3 values as printed (overconfident for the paper's
             own IMU model: docs/navigation.md).
@@ -360,6 +363,7 @@ class Navigation:
     gravity_aiding: bool = True
     depth_aiding: bool = True
     initial_error: bool = True
+    gate_probability: float = 0.999
     tuning: str = "imu"
 
     @property

@@ -228,7 +228,11 @@ def _navigators(
     if not nav.variants:
         return {}
     imu = suite["imu"].spec
-    eskf = EskfConfig() if nav.tuning == "paper" else EskfConfig.for_imu(_imu_grade(imu))
+    eskf = (
+        EskfConfig(gate_probability=nav.gate_probability)
+        if nav.tuning == "paper"
+        else EskfConfig.for_imu(_imu_grade(imu), gate_probability=nav.gate_probability)
+    )
     cfg = NavigatorConfig(
         compass_rate_hz=nav.compass_rate_hz,
         gravity_aiding=nav.gravity_aiding,

@@ -238,6 +238,12 @@ def test_all_features_file() -> None:
         ({"variants": []}, {"estimate": True}, "autopilot.attitude_source", "needs an onboard"),
         ({"varients": ["ins"]}, {}, "navigation.varients", "unknown key"),
         ({"variants": ["ins"], "tuning": "guess"}, {}, "navigation.tuning", "not one of"),
+        (
+            {"variants": ["ins"], "gate_probability": 0.2},
+            {},
+            "navigation.gate_probability",
+            "range",
+        ),
     ],
 )
 def test_navigation_errors_name_the_field(nav, extra, path, needle) -> None:

@@ -1,0 +1,98 @@
+"""The LIG paper's sea trials in the twin: POL/INS vs LIG/INS heading error at 10 m and 15 m.
+
+Runs scenarios/sea_trial_10m.toml and sea_trial_15m.toml (Weihai, 2021-09-03, the paper's IMU,
+PHX050S-P at 700 µs binned to 612×512, compass at 1 Hz, three paired filter variants) twice:
+with the twin's default innovation gate (NIS, p = 0.999) and with gating off, as the paper's
+filter fuses every fix. Writes benchmarks/results/sea_trials.{md,json}.
+
+    python benchmarks/sea_trials.py [--seeds 0 1 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import scenarios
+from twin.run import run_scenario
+
+RESULTS = Path(__file__).resolve().parent / "results"
+PAPER = {10: {"pol": 3.6, "lig": 1.6}, 15: {"pol": 16.1, "lig": 2.2}}
+
+
+def trial(depth: int, gate: float, seed: int) -> dict:
+    sc = scenarios.load(f"sea_trial_{depth}m")
+    sc = dataclasses.replace(
+        sc,
+        navigation=dataclasses.replace(sc.navigation, gate_probability=gate),
+        recording=dataclasses.replace(sc.recording, camera=False),
+    )
+    with tempfile.TemporaryDirectory() as d:
+        m = run_scenario(sc, d, seed=seed, camera=False)
+    out = {"depth_m": depth, "gate_probability": gate, "seed": seed, "rtf": m["real_time_factor"]}
+    for name, v in m["navigation"]["variants"].items():
+        comp = v.get("compass") or {}
+        out[name] = {
+            "heading_rmse_deg": v["heading_rmse_deg"],
+            "heading_mae_deg": v["heading_mae_deg"],
+            "heading_max_deg": v["heading_max_deg"],
+            "roll_pitch_rmse_deg": [v["roll_rmse_deg"], v["pitch_rmse_deg"]],
+            "nees": v["nees_attitude_mean"],
+            "sun_applied": comp.get("sun_updates_applied"),
+            "sun_rejected": comp.get("sun_updates_rejected"),
+        }
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0])
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    rows = [trial(d, g, s) for g in (0.999, 1.0) for d in (10, 15) for s in args.seeds]
+    lines = [
+        "# LIG paper sea trials in the twin (benchmarks/sea_trials.py)",
+        "",
+        f"Seeds {args.seeds}; heading RMSE over the whole run, degrees (MAE in brackets); "
+        "roll/pitch RMSE; sun updates applied/rejected by the NIS gate. Run time "
+        f"{time.perf_counter() - t0:.0f} s, {time.strftime('%Y-%m-%d')}.",
+        "",
+        "| gate | depth | INS only | POL/INS | LIG/INS | paper POL/INS | paper LIG/INS |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for g in (0.999, 1.0):
+        for d in (10, 15):
+            sel = [r for r in rows if r["depth_m"] == d and r["gate_probability"] == g]
+
+            def cell(name: str, sel=sel) -> str:
+                rm = statistics.mean(r[name]["heading_rmse_deg"] for r in sel)
+                mae = statistics.mean(r[name]["heading_mae_deg"] for r in sel)
+                rp = [
+                    statistics.mean(r[name]["roll_pitch_rmse_deg"][i] for r in sel) for i in (0, 1)
+                ]
+                s = f"{rm:.2f} ({mae:.2f}); r/p {rp[0]:.2f}/{rp[1]:.2f}"
+                if sel[0][name]["sun_applied"] is not None:
+                    ap_ = sum(r[name]["sun_applied"] for r in sel)
+                    rj = sum(r[name]["sun_rejected"] for r in sel)
+                    s += f"; sun {ap_}/{rj}"
+                return s
+
+            gate = "off" if g >= 1.0 else f"p={g}"
+            lines.append(
+                f"| {gate} | {d} m | {cell('ins')} | {cell('pol')} | {cell('lig')} | "
+                f"{PAPER[d]['pol']} | {PAPER[d]['lig']} |"
+            )
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "sea_trials.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / "sea_trials.json").write_text(json.dumps(rows, indent=2) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
