@@ -43,6 +43,9 @@ def test_observations_are_sensor_readings_and_time_only() -> None:
         "depth/t",
         "depth/depth_m",
         "depth/pressure_pa",
+        "polarimeter/t",
+        "polarimeter/raw",
+        "polarimeter/exposure_us",
     }
     ts = env.reset()
     ts = env.step(np.array([1.5, 10.0, 0.0]))
@@ -50,6 +53,8 @@ def test_observations_are_sensor_readings_and_time_only() -> None:
     assert ts.observation["imu/specific_force"][2] == pytest.approx(9.8, abs=0.1)
     assert ts.observation["depth/depth_m"].item() == pytest.approx(10.0, abs=0.2)
     assert ts.observation["time_s"] == pytest.approx(0.1)
+    raw = ts.observation["polarimeter/raw"]
+    assert raw.shape == (512, 612) and raw.dtype == np.uint16 and raw.max() > 1000
 
 
 def test_episode_is_truncated_at_the_scenario_duration() -> None:

@@ -106,8 +106,9 @@ def test_same_seed_same_navigation_metrics(tmp_path) -> None:
 
 
 def test_without_a_filter_the_autopilot_steers_on_truth() -> None:
-    world = build_world(scenarios.load("default"))
+    world = build_world(scenarios.load("lawnmower_10m"))
     assert world.navigators == {} and isinstance(world.nav, TruthNav)
+    assert isinstance(build_world(scenarios.load("default")).nav, TruthNav)
 
 
 def _closed_loop(variants: tuple[str, ...], steer: str, duration_s: float):
