@@ -13,8 +13,18 @@ from sensors.polarimeter.render import OpticsConfig
 from twin.frames import euler_to_dcm
 from twin.onboard.compass import create
 from twin.onboard.compass.base import CompassContext
-from twin.onboard.compass.roia import RoiaConfig, RoiaMethod, p_scattered, tilt_rad
-from twin.onboard.compass.snell import SnellConfig, SnellWindowMethod, meridian_basis
+from twin.onboard.compass.roia import RoiaConfig, RoiaMethod, p_scattered, tilt_rad, zenith_crop
+from twin.onboard.compass.snell import (
+    SnellConfig,
+    SnellWindowMethod,
+    bin_mosaic,
+    binned_calibration,
+    binning_for,
+    evectors_at,
+    meridian_basis,
+    robust_sinusoid,
+    to_stokes,
+)
 
 UTC = dt.datetime(2024, 6, 1, 12, 0)
 
@@ -202,3 +212,105 @@ def test_bad_input(ideal):
         RoiaConfig(zenith_radius_deg=-1.0)
     with pytest.raises(ValueError, match="median_ksize"):
         SnellConfig(median_ksize=7)
+
+
+# ---- speed-ups: working frame, crops, resampled Stokes ------------------------------------------
+def test_evectors_at_matches_calibration():
+    """evectors_at on arbitrary rays = CameraCalibration.evectors on its grid, both mappings."""
+    import dataclasses
+
+    base = sensors.create("polarimeter", "ideal_bin4").calibration()
+    rng = np.random.default_rng(5)
+    for mapping in ("meridional", "orthographic"):
+        cal = dataclasses.replace(base, polarization_mapping=mapping)
+        rays, valid = cal.rays("superpixel")
+        aop = rng.uniform(-math.pi / 2, math.pi / 2, rays.shape[:2])
+        ref = cal.evectors(aop, "superpixel")
+        sel = valid & (rays[..., 2] > 0.05)
+        got = evectors_at(cal, rays[sel], aop[sel])
+        np.testing.assert_allclose(got, ref[sel], atol=1e-12)
+
+
+def test_bin_mosaic_registered_and_calibrated():
+    """Binning 4× in software gives the on-sensor binning-4 camera's geometry and registration."""
+    full = sensors.create("polarimeter", "phx050s_p").calibration()
+    binned = sensors.create("polarimeter", "phx050s_p_bin4").calibration()
+    assert binning_for(full, 640) == 4 and binning_for(binned, 640) == 1
+    assert binning_for(full, None) == 1
+    cal4 = binned_calibration(full, 4)
+    assert (cal4.width_px, cal4.height_px) == (binned.width_px, binned.height_px)
+    assert math.isclose(cal4.focal_px, binned.focal_px)
+    np.testing.assert_allclose(cal4.principal_point_px, binned.principal_point_px)
+    # A ramp is reproduced at the binned pixels' nominal positions b·k + (b − 1)/2, every phase.
+    for b in (2, 4, 8):
+        v, u = np.mgrid[0:128, 0:96].astype(np.float64)
+        out = bin_mosaic((3.0 * u + 7.0 * v).astype(np.float32), b)
+        vb, ub = np.mgrid[0 : 128 // b, 0 : 96 // b]
+        nominal = 3.0 * (b * ub + (b - 1) / 2) + 7.0 * (b * vb + (b - 1) / 2)
+        np.testing.assert_allclose(out[2:-2, 2:-2], nominal[2:-2, 2:-2], atol=1e-3)
+    # A clipped source pixel keeps its binned pixel clipped.
+    raw = np.full((32, 32), 1000, np.uint16)
+    raw[9, 10] = 4095
+    out = bin_mosaic(raw, 4, saturation_dn=4095)
+    assert out[3, 2] == 4095  # raw (9, 10): phase (1, 0) of binned super-pixel (1, 1)
+    assert 1 <= np.count_nonzero(out >= 4095) <= 4  # and the neighbours its kernel reaches
+
+
+def test_robust_sinusoid_rejects_a_sector():
+    phi = np.linspace(0, 2 * math.pi, 360, endpoint=False)
+    y = 0.84 + 0.05 * np.cos(phi) - 0.02 * np.sin(phi)
+    y = y + np.random.default_rng(1).normal(0, 1e-3, phi.size)
+    y[40:110] -= 0.2  # the sun's glow: a 70° sector of wrong edges
+    (c0, c1, c2), n_in = robust_sinusoid(phi, y, floor=1e-4)
+    assert abs(c0 - 0.84) < 1e-3 and abs(c1 - 0.05) < 1e-3 and abs(c2 + 0.02) < 1e-3
+    assert 280 <= n_in <= 300
+
+
+@pytest.mark.parametrize(("roll", "pitch"), [(0, 25), (-50, 0), (0, -50)])
+def test_snell_rim_fit_recovers_from_a_far_start(noisy, roll, pitch):
+    """The rim fit converges from a centroid 12° off (the glow's pull; the benchmark outliers)."""
+    sun = sun_vec(35, 150)
+    raw, _ = render(noisy, roll, pitch, 137.0, sun, seed=4)
+    cal = noisy.calibration()
+    m = SnellWindowMethod()
+    pol = to_stokes(raw, cal)
+    truth = euler_to_dcm(math.radians(roll), math.radians(pitch), 0.0).T @ [0.0, 0.0, 1.0]
+    for az in (0.0, 2.0, 4.0):
+        t1 = np.cross(truth, [1.0, 0.0, 0.0])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(truth, t1)
+        off = math.radians(12.0)
+        z0 = math.cos(off) * truth + math.sin(off) * (math.cos(az) * t1 + math.sin(az) * t2)
+        lg = np.log(np.maximum(0.5 * pol.s0, 1.0)).astype(np.float32)
+        z, n_in = m._fit_rim(cal, lg, z0, math.asin(1 / 1.338))
+        err = math.degrees(math.acos(min(1.0, float(z @ truth))))
+        assert err < 0.25, (az, err)
+        assert n_in > 100
+
+
+def test_full_resolution_frame():
+    """2448×2048: Snell works on the binned working frame, ROI-A on a crop; both accurate."""
+    cam = sensors.create("polarimeter", "phx050s_p")
+    cam.configure(OpticsConfig(jerlov_type="II"))
+    cal = cam.calibration()
+    sun = sun_vec(35, 200)
+    r, p, h = 10.0, -20.0, 45.0
+    raw, _ = render(cam, r, p, h, sun, seed=2)
+    fs = SnellWindowMethod().solve(raw, cal, ctx_for(sun))
+    assert fs.ok, fs.reason
+    assert fs.extras["work_binning"] == 4
+    assert abs(math.degrees(fs.roll_rad) - r) < 0.3
+    assert abs(math.degrees(fs.pitch_rad) - p) < 0.3
+    assert abs(hdg_err(fs, h)) < 0.3
+    fr = RoiaMethod().solve(raw, cal, ctx_for(sun, r, p))
+    assert fr.ok, fr.reason
+    assert abs(hdg_err(fr, h)) < 0.3
+    # The zenith-region crop is whole super-pixels and holds the region.
+    zen = euler_to_dcm(math.radians(r), math.radians(p), 0.0).T @ [0.0, 0.0, 1.0]
+    v0, v1, u0, u1 = zenith_crop(cal, zen, math.radians(7.6))
+    assert all(x % 2 == 0 for x in (v0, v1, u0, u1))
+    rays, valid = cal.rays("superpixel")
+    inside = valid & (rays @ zen >= math.cos(math.radians(7.6)))
+    vv, uu = np.nonzero(inside)
+    assert 2 * vv.min() >= v0 + 2 and 2 * vv.max() + 2 <= v1 - 2
+    assert 2 * uu.min() >= u0 + 2 and 2 * uu.max() + 2 <= u1 - 2

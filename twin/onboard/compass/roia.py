@@ -2,7 +2,9 @@
 
 J. Meas. Sci. Instrum. 15(2):157–165. The steps, with the paper's equation numbers:
 
-1. Stokes and AoP (eqs. 1–3) by the shared :func:`~twin.onboard.polarization.stokes_from_mosaic`;
+1. Stokes and AoP (eqs. 1–3) by the shared :func:`~twin.onboard.polarization.stokes_from_mosaic`,
+   on a crop of the mosaic around the zenith region only (``zenith_crop``: 2×2 phase kept, a
+   margin for the demosaicing kernel, so its pixels equal the whole frame's);
    the AoP is referred to the local meridian (eq. 2's ``b``) through the calibration's 3-D
    E-vectors, in the *levelled* frame given by the INS roll/pitch hint.
 2. **Zenith region** (eqs. 4–8): the tilt β = arccos(cos α cos γ) (eq. 4); the region is centred on
@@ -150,6 +152,30 @@ def zenith_radius_rad(calibration: CameraCalibration, fov_deg: float = 185.0) ->
     return float(calibration.theta_of_rho(r_px))
 
 
+def zenith_crop(
+    calibration: CameraCalibration, zen_c: FloatArray, radius: float, margin_px: int = 4
+) -> tuple[int, int, int, int]:
+    """Rows v0:v1 and columns u0:u1 of the raw frame holding the cone of ``radius`` about zen_c.
+
+    The box of the cone's image (its rim sampled every 5°, and its centre) plus ``margin_px``
+    (≥ the demosaicing kernel's reach), clipped to the frame; all bounds even, so the crop is a
+    whole number of 2×2 super-pixels in the frame's phase.
+    """
+    z = np.asarray(zen_c, dtype=np.float64)
+    t1 = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(z, t1)
+    a = np.radians(np.arange(0.0, 360.0, 5.0))[:, None]
+    ring = math.cos(radius) * z + math.sin(radius) * (np.cos(a) * t1 + np.sin(a) * t2)
+    u, v, _ = calibration.project(np.vstack([ring, z]))
+    w, h = calibration.width_px, calibration.height_px
+    u0 = min(max(math.floor(float(u.min())) - margin_px, 0), w - 2) & ~1
+    v0 = min(max(math.floor(float(v.min())) - margin_px, 0), h - 2) & ~1
+    u1 = max(min(math.ceil(float(u.max())) + margin_px + 1, w), u0 + 2)
+    v1 = max(min(math.ceil(float(v.max())) + margin_px + 1, h), v0 + 2)
+    return v0, v1 + (v1 - v0) % 2, u0, u1 + (u1 - u0) % 2
+
+
 def tilt_rad(roll_rad: float, pitch_rad: float) -> float:
     """Eq. 4: β = arccos(cos α cos γ), the optical axis' angle from the vertical."""
     return math.acos(max(-1.0, min(1.0, math.cos(pitch_rad) * math.cos(roll_rad))))
@@ -213,8 +239,18 @@ class RoiaMethod:
                 f"tilt {math.degrees(beta):.1f}° beyond eq. 8's limit "
                 f"{math.degrees(beta_max):.1f}°",
             )
-        pol = to_stokes(raw, calibration, cfg.stokes_grid)
-        rays_c, valid = calibration.rays(cfg.stokes_grid)
+        # Stokes only around the zenith region: a crop of the mosaic (2×2 phase kept) with a
+        # margin for the demosaicing kernel, so its pixels are those of the whole frame's.
+        v0, v1, u0, u1 = zenith_crop(calibration, zen_c, radius)
+        pol = to_stokes(raw[v0:v1, u0:u1], calibration, cfg.stokes_grid)
+        if cfg.stokes_grid == "superpixel":
+            jj, ii = np.arange((u1 - u0) // 2), np.arange((v1 - v0) // 2)
+            uu, vv = np.meshgrid(u0 + 2.0 * jj + 0.5, v0 + 2.0 * ii + 0.5)
+        else:
+            uu, vv = np.meshgrid(
+                np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64)
+            )
+        rays_c, valid = calibration.pixel_to_ray(uu, vv)
         region = valid & (rays_c @ zen_c >= math.cos(radius))  # eq. 7 on the sphere
         n_region = int(region.sum())
         if n_region < cfg.min_pixels:
@@ -232,8 +268,7 @@ class RoiaMethod:
             return no_fix(
                 self.name, f"too few polarized zenith pixels ({n_use} < {cfg.min_pixels})", n_use
             )
-        d_h, e_h = evectors_h(pol, calibration, c_c_h, (), cfg.stokes_grid)
-        d, e = d_h[use], e_h[use]
+        d, e = evectors_h(rays_c[use], pol.aop[use], calibration, c_c_h)
         dop = pol.dop[use].astype(np.float64)
         w0 = dop * dop * pol.s0[use].astype(np.float64)  # 1/σ_ψ² (shot noise)
         w0 = w0 / w0.mean()

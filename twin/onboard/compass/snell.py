@@ -16,6 +16,13 @@ From one frame the method measures all three attitude angles:
 
 How this implementation reads the paper (decisions, each marked in the code):
 
+0. **Working frame** (not in the paper). A frame larger than ``max_work_px`` (640) is first binned
+   by same orientation to at most that size (``bin_mosaic``; 2448×2048 → 612×512), registered so
+   that the four analysers of a binned super-pixel sample one point, with the matching
+   calibration (``binned_calibration``); everything below runs on that frame. The window is
+   ~100 working pixels in radius and every step averages hundreds to thousands of pixels, so
+   full resolution buys no accuracy here (benchmarks/results/snell_attitude.md: the same MAE at
+   both resolutions) and cost 16 s a frame.
 1. **Distortion correction** (§2.4). The paper undistorts with a Zhang pinhole model, which cannot
    hold rays beyond 90° off-axis (a 185° lens tilted 50° sees the window out to 98.6°). Here the
    calibration's own ray model (``CameraCalibration.project``) resamples the frame onto an ideal
@@ -24,13 +31,19 @@ How this implementation reads the paper (decisions, each marked in the code):
    polar angle about the image centre, and the solar meridian is a straight line through the
    centre. (Without levelling, the meridian of a tilted camera would not pass through the image
    centre, and eq. 6 would measure the E-vector against the camera's, not the sky's, meridians.)
+   S0, S1 and S2 are resampled (they are linear in the radiance) and the AoE is formed per output
+   pixel along its own ray.
 2. **Window centre** (§3.2, eq. 12). The centre of the thresholded pixels is taken on the sphere:
    the solid-angle-weighted mean of their unit rays, which for a whole window is exactly the
    zenith (a pixel centroid of the elliptical image of a tilted window is not). Where the window
    runs off the 185° field (tilt > ~44°) only pixels whose mirror image about the current axis is
    also in the field are kept (two iterations), which removes the truncation bias. Then the
    rim is fitted (``edge_refine``): the sun's forward-scattering glow spills past the window on
-   the sun's side and passes the threshold, pulling the centroid by up to ~7° in Jerlov II.
+   the sun's side and passes the threshold, pulling the centroid by 6–14° in Jerlov II with the
+   sun at 35°. The rim is found per azimuth on a polar grid about the estimate (steepest outward
+   fall of the log grey) and a circle fitted robustly, narrowing from ± ``rim_search_deg``.
+   (An earlier fit maximised the mean log-grey step across a fixed cone by Nelder–Mead; its cost
+   is piecewise constant in the zenith and it stalled 7–13° off on 3 of 114 benchmark frames.)
 3. **Grey value** (eq. 15). As printed, eq. 15 has ``cos 2φ`` twice (``sin 2φ`` is meant) and
    depends on an analyser angle φ; its mean over φ, ½S0, is used so that the polarization
    pattern does not shift the centroid. "The brightest 70 %" is read as the brightest 70 % of the
@@ -56,8 +69,10 @@ Fix: the sun's azimuth in the levelled frame comes from the meridian, its elevat
 ephemeris (the meridian carries none); the solar vector is built in the horizontal frame and
 returned in the body frame with the method's own roll/pitch (``finish_fix(c_b_h=...)``).
 
-Quality: ``pixels_used`` = window pixels (thresholded Stokes-grid pixels); ``residual`` = the spread
-(rad, 1σ) of the selected Hough lines' directions about the meridian after the symmetry pairing;
+Quality: ``pixels_used`` = window pixels (thresholded Stokes-grid pixels of the working frame);
+``extras["rim_azimuths"]`` = azimuths the rim fit kept (0: the centroid stands),
+``extras["work_binning"]`` = the working frame's binning; ``residual`` = the spread (rad, 1σ)
+of the selected Hough lines' directions about the meridian after the symmetry pairing;
 no eigenproblem (``eigen_gap`` None). Covariance of ``sun_body`` (rad², tangent plane): in the
 horizontal frame, azimuth variance σ_az² = max(residual²/n_lines, (Δθ_Hough)²/12) + a floor
 (``azimuth_floor_deg``)² scaled by cos²(elevation) along the horizontal tangent, and the
@@ -67,6 +82,8 @@ tangent; rotated to the body frame.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -161,26 +178,158 @@ def pixel_solid_angle(calibration: CameraCalibration, theta: FloatArray) -> Floa
     return np.sin(t) / np.maximum(rho * drho, 1e-12)
 
 
+def evectors_at(calibration: CameraCalibration, rays_c: FloatArray, aop: FloatArray) -> FloatArray:
+    """3-D unit E-vectors (camera frame) of AoPs measured along arbitrary camera rays (..., 3).
+
+    :meth:`CameraCalibration.evectors` for rays that are not a whole Stokes grid (a crop, or the
+    rays of a resampled image); the same two lens mappings, evaluated at ``rays_c``.
+    """
+    a = np.asarray(aop, dtype=np.float64)
+    x, y, z = rays_c[..., 0], rays_c[..., 1], rays_c[..., 2]
+    ca, sa = np.cos(a), np.sin(a)
+    if calibration.polarization_mapping == "meridional":
+        # cos ψ · r_s + sin ψ · t_s with r_s, t_s of CameraCalibration.sensor_axes.
+        den = np.maximum(1.0 + z, 1e-12)
+        xd, yd = x / den, y / den
+        return np.stack(
+            [
+                ca * (1.0 - x * xd) + sa * (x * yd),
+                -ca * (x * yd) - sa * (1.0 - y * yd),
+                -ca * x + sa * y,
+            ],
+            axis=-1,
+        )
+    # Orthographic: the sensor-plane direction (cos ψ, −sin ψ, 0) lifted ⟂ to the ray.
+    ez = -(ca * x - sa * y) / np.maximum(z, 1e-12)
+    e = np.stack([ca, -sa, ez], axis=-1)
+    return e / np.linalg.norm(e, axis=-1, keepdims=True)
+
+
 def evectors_h(
-    pol: PolarizationImage,
+    rays_c: FloatArray,
+    aop: FloatArray,
     calibration: CameraCalibration,
     c_c_h: FloatArray,
     aop_error_poly_deg: tuple[float, ...] = (),
-    grid: StokesGrid = "interpolate",
 ) -> tuple[FloatArray, FloatArray]:
-    """Per super-pixel unit rays and 3-D E-vectors, both in the horizontal (levelled) frame.
+    """Unit rays and 3-D E-vectors of AoPs measured along camera rays, in the horizontal frame.
 
     ``aop_error_poly_deg`` (xin2024 §2.3): residual lens AoP error δψ(θ) in degrees, a polynomial
     in the incidence angle θ (degrees, highest power first as ``numpy.polyval``), subtracted from
     the measured AoP before lifting.
     """
-    rays_c, _ = calibration.rays(grid)
-    aop = pol.aop.astype(np.float64)
+    aop = np.asarray(aop, dtype=np.float64)
     if aop_error_poly_deg:
         theta_deg = np.degrees(np.arctan2(np.hypot(rays_c[..., 0], rays_c[..., 1]), rays_c[..., 2]))
         aop = aop - np.radians(np.polyval(np.asarray(aop_error_poly_deg), theta_deg))
-    e_c = calibration.evectors(aop, grid)
+    e_c = evectors_at(calibration, rays_c, aop)
     return rays_c @ c_c_h.T, e_c @ c_c_h.T
+
+
+def grid_coords(
+    calibration: CameraCalibration, dirs_c: FloatArray, grid: StokesGrid
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_]]:
+    """``cv2.remap`` maps onto the ``grid`` Stokes image of camera-frame directions; validity."""
+    u, v, valid = calibration.project(dirs_c)
+    if grid == "superpixel":  # super-pixel (i, j) is centred at raw (2j + ½, 2i + ½)
+        return ((u - 0.5) / 2.0).astype(np.float32), ((v - 0.5) / 2.0).astype(np.float32), valid
+    return u.astype(np.float32), v.astype(np.float32), valid
+
+
+def binning_for(calibration: CameraCalibration, max_px: int | None) -> int:
+    """Smallest power-of-two same-orientation binning b that brings the frame to ≤ ``max_px``.
+
+    Limited to binnings that divide the frame into whole binned super-pixels (2b | H, W).
+    """
+    b = 1
+    if max_px is None:
+        return b
+    w, h = calibration.width_px, calibration.height_px
+    while max(w, h) / b > max_px and w % (4 * b) == 0 and h % (4 * b) == 0:
+        b *= 2
+    return b
+
+
+@functools.lru_cache(maxsize=8)
+def binned_calibration(calibration: CameraCalibration, b: int) -> CameraCalibration:
+    """The calibration of a frame binned b×b by same orientation (``bin_mosaic``).
+
+    The convention of the world's on-sensor binning (``sensors.polarimeter.camera``): binned pixel
+    k sits at frame coordinate b·k + (b − 1)/2, so f → f/b and c → (c − (b − 1)/2)/b; the
+    ±(b − 1)/2 offset of each orientation's b×b centroid is neglected, as there.
+    """
+    if b == 1:
+        return calibration
+    cu, cv = calibration.principal_point_px
+    off = (b - 1) / 2.0
+    return dataclasses.replace(
+        calibration,
+        width_px=calibration.width_px // b,
+        height_px=calibration.height_px // b,
+        focal_px=calibration.focal_px / b,
+        principal_point_px=((cu - off) / b, (cv - off) / b),
+        pixel_pitch_um=calibration.pixel_pitch_um * b,
+    )
+
+
+def _centred_box(b: int, phase: int) -> tuple[NDArray[np.float32], int]:
+    """Sub-lattice kernel of a b-sample mean centred on the binned pixel's nominal position.
+
+    Returns the weights on one orientation's sub-lattice and the anchor (index of offset 0).
+
+    Binned pixel k sits at frame coordinate b·k + (b − 1)/2 (``binned_calibration``), but the
+    plain mean of the b same-orientation pixels is centred (b − 1)(phase − ½) frame pixels away
+    from that: ∓1.5 px at b = 4, the two orientations of a row 3 px apart. The mean is taken of
+    the sub-lattice linearly interpolated at the b nominal sample positions instead.
+    """
+    start = (b - 1) * (phase - 0.5) / 2.0  # sub-lattice index of the first sample (bI + start)
+    k_min = min(math.floor(start), 0)  # the kernel starts at or before offset 0 (the anchor)
+    w = np.zeros(2 * b + 2, np.float64)
+    for m in range(b):
+        x = start + m - k_min
+        n = math.floor(x)
+        f = x - n
+        w[n] += 1.0 - f
+        w[n + 1] += f
+    w = w[: np.flatnonzero(w > 1e-12).max() + 1] / b
+    return w.astype(np.float32), -k_min
+
+
+def bin_mosaic(
+    raw: NDArray[np.generic], b: int, saturation_dn: float | None = None
+) -> NDArray[np.float32]:
+    """Same-orientation b×b binning of a 2×2 DoFP mosaic (the mean, in DN; float32).
+
+    Within every 2b×2b block the b×b pixels behind the same micro-polarizer are averaged, so the
+    result is again a 2×2 mosaic, (H/b)×(W/b), whose pixel k sits at frame coordinate
+    b·k + (b − 1)/2 as ``binned_calibration`` states. The four orientations are registered: each
+    is averaged about that nominal position (``_centred_box``), not about its own pixels' centroid,
+    which lies ±(b − 1)/2 frame pixels off, alternating with the phase; unregistered, the four
+    analysers of a binned super-pixel see points 3 px apart (b = 4), which biases the AoP where
+    S0 has a gradient (~0.4° of yaw in the Snell benchmark). A binned pixel any of whose sources
+    (the kernel's b + 1 per axis) is at or above ``saturation_dn`` is set to ``saturation_dn`` so
+    that it stays flagged as clipped.
+    """
+    h, w = raw.shape
+    hb, wb = h // (2 * b), w // (2 * b)
+    out = np.empty((h // b, w // b), np.float32)
+    sat = saturation_dn is not None and float(raw.max()) >= saturation_dn
+    for r in (0, 1):
+        ky, ay = _centred_box(b, r)
+        for c in (0, 1):
+            kx, ax = _centred_box(b, c)
+            q = raw[r::2, c::2].astype(np.float32)
+            f = cv2.sepFilter2D(
+                q, cv2.CV_32F, kx, ky, anchor=(ax, ay), borderType=cv2.BORDER_REPLICATE
+            )
+            out[r::2, c::2] = f[: hb * b : b, : wb * b : b]
+            if sat:  # any clipped source under the kernel
+                clip = (q >= saturation_dn).astype(np.float32)
+                hit = cv2.sepFilter2D(
+                    clip, cv2.CV_32F, kx, ky, anchor=(ax, ay), borderType=cv2.BORDER_REPLICATE
+                )
+                out[r::2, c::2][hit[: hb * b : b, : wb * b : b] > 0] = np.float32(saturation_dn)
+    return out
 
 
 # ---- the method ----------------------------------------------------------------------------------
@@ -200,14 +349,26 @@ class SnellConfig:
         min_signal_dn: Median window S0 (DN) below which the frame is too dark. [not in the paper]
         symmetric_truncation: Drop window pixels whose mirror about the zenith is outside the
             field (removes the centroid bias of a window cut by the image circle). [ours]
-        edge_refine: Refine the centroid by fitting the window's rim: the zenith that maximises
-            the log-grey step across a cone of half-angle θ_c = arcsin(1/n_w) (Nelder–Mead from
-            the centroid). The sun's forward-scattering glow spills past the rim on the sun's
-            side and passes the grey threshold, pulling a plain centroid by up to several
-            degrees in Jerlov II water; the rim is sharp, the glow smooth. [ours]
-        edge_band_deg: Width of the inner and outer bands of that step. [ours]
+        max_work_px: Frames larger than this (pixels, longer side) are binned by same orientation
+            (``bin_mosaic``, b = 2, 4, …) to a working mosaic of at most this size before any
+            other step: a 2448×2048 frame is processed as the 612×512 frame of an on-sensor
+            binning-4 camera. None = never bin. [ours: the method's resolution needs are set by
+            the window (≈ 100 working pixels of radius), not by the sensor]
+        edge_refine: Refine the centroid by fitting the window's rim: the sun's forward-scattering
+            glow spills past the rim on the sun's side and passes the grey threshold, pulling a
+            plain centroid by up to ~14° in Jerlov II water; the rim is sharp, the glow smooth.
+            The log grey is resampled on a polar grid about the current estimate, the rim found
+            per azimuth as the steepest outward fall (derivative of a Gaussian along the polar
+            angle), and a circle θ_rim(φ) = r0 + a cos φ + b sin φ fitted robustly (least median
+            of squares, then Tukey IRLS); the estimate moves by (a, b) and the search narrows
+            (``rim_search_deg``, 6°, 3°, 3°). [ours]
+        rim_search_deg: Half-width (polar angle) of the first rim search about the critical
+            angle. [ours]
+        rim_azimuths: Azimuths of the polar grid. [ours]
+        rim_smooth_deg: σ of the Gaussian derivative along the polar angle (at least one
+            Stokes-grid pixel). [ours]
         level_scale: Pixels per radian of the levelled equidistant image, as a multiple of the
-            calibration's (super-pixel) focal length. [ours]
+            working (binned) frame's Stokes-grid focal length. [ours]
         window_margin_deg: Keep the characteristic region this far inside the window edge,
             where the refraction-polarization pattern is steep and noisy. [ours]
         median_ksize: Median filter aperture (§2.4; 3 or 5, OpenCV float limit). [not stated]
@@ -236,8 +397,11 @@ class SnellConfig:
     min_window_pixels: int = 200
     min_signal_dn: float = 20.0
     symmetric_truncation: bool = True
+    max_work_px: int | None = 640
     edge_refine: bool = True
-    edge_band_deg: float = 3.0
+    rim_search_deg: float = 20.0
+    rim_azimuths: int = 360
+    rim_smooth_deg: float = 0.5
     level_scale: float = 1.0
     window_margin_deg: float = 4.0
     median_ksize: int = 5
@@ -262,6 +426,8 @@ class SnellConfig:
             ("grey_fraction", self.grey_fraction, 0.05, 0.99),
             ("min_window_contrast", self.min_window_contrast, 1.0, 1e6),
             ("level_scale", self.level_scale, 0.25, 4.0),
+            ("rim_search_deg", self.rim_search_deg, 3.0, 40.0),
+            ("rim_smooth_deg", self.rim_smooth_deg, 0.0, 5.0),
             ("window_margin_deg", self.window_margin_deg, 0.0, 30.0),
             ("gauss_sigma_px", self.gauss_sigma_px, 0.0, 20.0),
             ("meridian_band_deg", self.meridian_band_deg, 0.5, 45.0),
@@ -286,6 +452,14 @@ class SnellConfig:
             raise ValueError(f"SnellConfig.median_ksize: {self.median_ksize!r}; allowed: 3, 5")
         if self.gauss_ksize < 1 or self.gauss_ksize % 2 == 0:
             raise ValueError(f"SnellConfig.gauss_ksize: {self.gauss_ksize!r}; allowed: odd >= 1")
+        if self.max_work_px is not None and not (
+            isinstance(self.max_work_px, int) and self.max_work_px >= 64
+        ):
+            raise ValueError(
+                f"SnellConfig.max_work_px: {self.max_work_px!r}; allowed: None or an int >= 64"
+            )
+        if not (isinstance(self.rim_azimuths, int) and 36 <= self.rim_azimuths <= 3600):
+            raise ValueError(f"SnellConfig.rim_azimuths: {self.rim_azimuths!r}; allowed 36..3600")
         if self.min_window_pixels < 10 or self.hough_max_lines < 1:
             raise ValueError("SnellConfig: min_window_pixels >= 10 and hough_max_lines >= 1")
 
@@ -300,6 +474,85 @@ class WindowCentre:
     pixels: int
     contrast: float
     mask: NDArray[np.bool_]
+    rim_azimuths: int = 0
+
+
+@functools.lru_cache(maxsize=8)
+def _grid_geometry(
+    calibration: CameraCalibration, grid: StokesGrid
+) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+    """Rays, validity and solid-angle weights of a Stokes grid (cached per calibration)."""
+    rays_c, valid = calibration.rays(grid)
+    theta = np.arctan2(np.hypot(rays_c[..., 0], rays_c[..., 1]), rays_c[..., 2])
+    return rays_c, valid, pixel_solid_angle(calibration, theta)
+
+
+@functools.lru_cache(maxsize=8)
+def _level_grid(n: int, k: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Directions (h frame), zenith angles and meridian bases of the n×n levelled image."""
+    half = (n - 1) // 2
+    vv, uu = np.mgrid[0:n, 0:n].astype(np.float64)
+    x = (uu - half) / k
+    y = -(vv - half) / k
+    th = np.hypot(x, y)
+    ph = np.arctan2(y, x)
+    d = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1)
+    e_th, e_ph = meridian_basis(d)
+    return d, th, e_th, e_ph
+
+
+@functools.lru_cache(maxsize=8)
+def _polar_maps(n: int, n_a: int) -> tuple[NDArray[np.float32], NDArray[np.float32], FloatArray]:
+    """``cv2.remap`` maps of an n×n centred image onto (radius 3 … , n_a angles); radii."""
+    half = (n - 1) / 2.0
+    r = np.arange(3.0, half - 1.0)
+    a = np.arange(n_a) * (2.0 * math.pi / n_a)
+    mx = (half + r[:, None] * np.cos(a)[None, :]).astype(np.float32)
+    my = (half - r[:, None] * np.sin(a)[None, :]).astype(np.float32)
+    return mx, my, r
+
+
+def robust_sinusoid(phi: FloatArray, y: FloatArray, floor: float) -> tuple[FloatArray, int] | None:
+    """Robust fit y ≈ c0 + c1 cos φ + c2 sin φ: least median of squares, then Tukey IRLS.
+
+    Candidates are the exact fits to triples of samples spread over the list (deterministic);
+    ``floor`` bounds the residual scale from below. Returns (c, inliers) or None (< 12 samples).
+    """
+    n = y.size
+    if n < 12:
+        return None
+    a = np.stack([np.ones_like(phi), np.cos(phi), np.sin(phi)], axis=1)
+    i = np.arange(0, n, max(1, n // 60))
+    trip = np.concatenate(
+        [
+            np.stack([i, (i + n // 3) % n, (i + 2 * n // 3) % n], 1),
+            np.stack([i, (i + n // 4) % n, (i + n // 2) % n], 1),
+            np.stack([i, (i + n // 6) % n, (i + n // 3) % n], 1),
+        ]
+    )
+    m = a[trip]
+    ok = np.abs(np.linalg.det(m)) > 1e-3
+    if not ok.any():
+        return None
+    coef = np.linalg.solve(m[ok], y[trip[ok]][..., None])[..., 0]
+    med = np.median(np.abs(a @ coef.T - y[:, None]), axis=0)
+    c = coef[int(np.argmin(med))]
+    for _ in range(10):
+        r = y - a @ c
+        s = max(1.4826 * float(np.median(np.abs(r))), floor)
+        u = r / (4.685 * s)
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        if np.count_nonzero(w) < 6:
+            break
+        aw = a * w[:, None]
+        c_new = np.linalg.solve(aw.T @ a, aw.T @ y)
+        done = np.max(np.abs(c_new - c)) < 1e-3 * floor
+        c = c_new
+        if done:
+            break
+    r = y - a @ c
+    s = max(1.4826 * float(np.median(np.abs(r))), floor)
+    return c, int(np.count_nonzero(np.abs(r) < 4.685 * s))
 
 
 @register
@@ -311,24 +564,36 @@ class SnellWindowMethod:
     def __init__(self, config: SnellConfig | None = None, **overrides: object) -> None:
         base = config if config is not None else SnellConfig()
         if overrides:
-            import dataclasses
-
             base = dataclasses.replace(base, **overrides)  # type: ignore[arg-type]
         self.config = base
 
+    # ---- step 0: the working frame --------------------------------------------------------------
+    def working_frame(
+        self, raw: NDArray[np.generic], calibration: CameraCalibration
+    ) -> tuple[NDArray[np.generic], CameraCalibration, int]:
+        """The frame binned to ``max_work_px`` (decision 0), its calibration and the binning."""
+        b = binning_for(calibration, self.config.max_work_px)
+        if b == 1:
+            return raw, calibration, 1
+        return (
+            bin_mosaic(raw, b, calibration.saturation_dn),
+            binned_calibration(calibration, b),
+            b,
+        )
+
     # ---- step 1: the window centre ⇒ roll, pitch (§3, eqs. 12–15) --------------------------------
     def window_centre(
-        self, pol: PolarizationImage, calibration: CameraCalibration, water_index: float = 1.34
+        self, pol: PolarizationImage, calibration: CameraCalibration, water_index: float = 1.338
     ) -> WindowCentre | str:
         """Zenith in the body frame from the grey-threshold window; a reason string on failure."""
         cfg = self.config
-        rays_c, valid = calibration.rays(cfg.stokes_grid)
-        grey = 0.5 * pol.s0.astype(np.float64)  # eq. 15 averaged over the analyser angle φ
+        rays_c, valid, omega = _grid_geometry(calibration, cfg.stokes_grid)
+        grey = 0.5 * pol.s0  # eq. 15 averaged over the analyser angle φ (float32)
         g = grey[valid]
         if g.size == 0:
             return "no valid pixels in the image circle"
-        lo = max(float(np.percentile(g, 1.0)), 1.0)
-        hi = max(float(np.percentile(g, 99.9)), 1.0)
+        p_lo, p_hi = np.percentile(g, [1.0, 99.9])
+        lo, hi = max(float(p_lo), 1.0), max(float(p_hi), 1.0)
         if hi < cfg.min_signal_dn:
             return f"frame too dark (99.9th percentile {hi:.1f} DN < {cfg.min_signal_dn:g})"
         # Brightest `grey_fraction` of the log grey range (decision 3 in the module docstring).
@@ -348,11 +613,9 @@ class SnellWindowMethod:
             )
         if inside < cfg.min_signal_dn:
             return f"frame too dark (window median {inside:.1f} DN < {cfg.min_signal_dn:g})"
-        theta = np.arctan2(np.hypot(rays_c[..., 0], rays_c[..., 1]), rays_c[..., 2])
-        omega = pixel_solid_angle(calibration, theta)
         d = rays_c[mask]
         w = omega[mask]
-        z_c = (w[:, None] * d).sum(0)
+        z_c = w @ d
         z_c /= np.linalg.norm(z_c)
         if cfg.symmetric_truncation:
             tmax = calibration.max_field_angle_rad
@@ -361,60 +624,99 @@ class SnellWindowMethod:
                 keep = np.arctan2(np.hypot(mirror[:, 0], mirror[:, 1]), mirror[:, 2]) <= tmax
                 if keep.sum() < cfg.min_window_pixels:
                     break
-                z_new = (w[keep, None] * d[keep]).sum(0)
+                z_new = w[keep] @ d[keep]
                 z_c = z_new / np.linalg.norm(z_new)
+        n_rim = 0
         if cfg.edge_refine and water_index > 1.0:
-            z_c = self._fit_rim(rays_c, valid, grey, z_c, math.asin(1.0 / water_index))
+            lg = np.log(np.maximum(grey, 1.0)).astype(np.float32)
+            rim = self._fit_rim(calibration, lg, z_c, math.asin(1.0 / water_index))
+            if rim is not None:
+                z_c, n_rim = rim
         n_b = calibration.c_c_b @ z_c  # eq. 12: N = R_{A→B} (0, 0, 1)ᵀ
         pitch = math.asin(max(-1.0, min(1.0, float(n_b[1]))))  # eq. 13
         roll = math.atan2(-float(n_b[0]), float(n_b[2]))  # eq. 14 (atan2 keeps |γ| > 90° apart)
-        return WindowCentre(n_b, roll, pitch, n, contrast, mask)
+        return WindowCentre(n_b, roll, pitch, n, contrast, mask, n_rim)
 
     def _fit_rim(
         self,
-        rays_c: FloatArray,
-        valid: NDArray[np.bool_],
-        grey: FloatArray,
+        calibration: CameraCalibration,
+        lgrey: NDArray[np.float32],
         z0: FloatArray,
         theta_c: float,
-    ) -> FloatArray:
-        """Zenith (camera frame) maximising the log-grey step across the window's rim."""
-        from scipy.optimize import minimize
+    ) -> tuple[FloatArray, int] | None:
+        """Zenith (camera frame) at the centre of the window's rim (``edge_refine``); inliers.
 
-        band = math.radians(self.config.edge_band_deg)
-        near = valid & (rays_c @ z0 >= math.cos(theta_c + 4 * band))
-        near &= rays_c @ z0 <= math.cos(max(theta_c - 4 * band, 0.0))
-        d = rays_c[near]
-        lg = np.log(np.maximum(grey[near], 1.0))
-        # Tangent basis at z0 for the two unknowns.
-        t1 = np.cross(z0, [1.0, 0.0, 0.0] if abs(z0[0]) < 0.9 else [0.0, 1.0, 0.0])
-        t1 /= np.linalg.norm(t1)
-        t2 = np.cross(z0, t1)
-        cin, cmid, cout = math.cos(theta_c - band), math.cos(theta_c), math.cos(theta_c + band)
-
-        def zen(x: FloatArray) -> FloatArray:
-            z = z0 + x[0] * t1 + x[1] * t2
-            return z / np.linalg.norm(z)
-
-        def cost(x: FloatArray) -> float:
-            c = d @ zen(x)
-            inner = (c >= cmid) & (c < cin)
-            outer = (c < cmid) & (c >= cout)
-            if inner.sum() < 10 or outer.sum() < 10:
-                return 0.0
-            return -float(lg[inner].mean() - lg[outer].mean())
-
-        res = minimize(
-            cost,
-            np.zeros(2),
-            method="Nelder-Mead",
-            options={
-                "xatol": 1e-5,
-                "fatol": 1e-7,
-                "initial_simplex": [[0, 0], [0.02, 0], [0, 0.02]],
-            },
-        )
-        return zen(res.x) if np.isfinite(res.fun) and res.fun < cost(np.zeros(2)) else z0
+        None when the rim is not found (the centroid stands).
+        """
+        cfg = self.config
+        sub = 2.0 if cfg.stokes_grid == "superpixel" else 1.0
+        px = sub / calibration.focal_px  # rad per Stokes-grid pixel near the axis
+        sigma = max(math.radians(cfg.rim_smooth_deg), px)
+        tmax = calibration.max_field_angle_rad - 2.0 * px  # off the image circle's own edge
+        n_phi = cfg.rim_azimuths
+        phi = np.arange(n_phi) * (2.0 * math.pi / n_phi)
+        cphi, sphi = np.cos(phi), np.sin(phi)
+        z = z0 / np.linalg.norm(z0)
+        n_in = 0
+        found = False
+        for half_deg in (cfg.rim_search_deg, 6.0, 3.0, 3.0):
+            half = math.radians(half_deg)
+            step = max(0.25 * px, half / 80.0)  # coarse while far, a quarter pixel when close
+            pad = math.ceil(3.0 * sigma / step)
+            ksize = 2 * pad + 1
+            n_r = math.ceil(half / step)
+            th = theta_c + np.arange(-n_r - pad, n_r + pad + 1) * step
+            th = th[(th > 2 * sigma) & (th < math.pi)]
+            t1 = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+            t1 /= np.linalg.norm(t1)
+            t2 = np.cross(z, t1)
+            radial = cphi[:, None] * t1 + sphi[:, None] * t2  # (n_phi, 3)
+            dirs = np.cos(th)[:, None, None] * z + np.sin(th)[:, None, None] * radial[None]
+            mx, my, ok = grid_coords(calibration, dirs, cfg.stokes_grid)
+            ok &= np.arctan2(np.hypot(dirs[..., 0], dirs[..., 1]), dirs[..., 2]) <= tmax
+            lp = cv2.remap(lgrey, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            lp = cv2.GaussianBlur(
+                lp, (1, ksize), sigmaX=0.1, sigmaY=sigma / step, borderType=cv2.BORDER_REPLICATE
+            )
+            grad = np.diff(lp, axis=0) / step  # at (th[i] + th[i+1]) / 2
+            # A gradient sample is usable when the smoothing kernel saw only valid samples.
+            okc = np.cumsum(~ok, axis=0)
+            lo_i = np.clip(np.arange(grad.shape[0]) - pad, 0, None)
+            hi_i = np.clip(np.arange(grad.shape[0]) + pad + 1, None, ok.shape[0] - 1)
+            bad = (okc[hi_i] - okc[lo_i] + (~ok)[lo_i]) > 0
+            grad = np.where(bad, 0.0, grad)
+            grad[: max(pad - 1, 0)] = 0.0
+            grad[grad.shape[0] - pad :] = 0.0
+            i = np.argmin(grad, axis=0)
+            depth = -grad[i, np.arange(n_phi)]
+            # Columns whose edge lies on the image circle's cut (rim beyond the field) or whose
+            # steepest fall is weak (no rim in range) carry no rim.
+            last_ok = ok.shape[0] - 1 - np.argmax(ok[::-1], axis=0)
+            col = ok.any(axis=0) & (depth > 0) & (i + 1 + 2 * pad < last_ok)
+            if col.sum() < 12:
+                break
+            col &= depth >= 0.25 * float(np.percentile(depth[col], 90))
+            ic = np.clip(i, 1, grad.shape[0] - 2)
+            gl, g0, gr = (grad[ic + o, np.arange(n_phi)] for o in (-1, 0, 1))
+            den = gl - 2.0 * g0 + gr
+            frac = np.where(den > 0, 0.5 * (gl - gr) / np.where(den > 0, den, 1.0), 0.0)
+            t_edge = th[0] + (ic + 0.5 + np.clip(frac, -0.5, 0.5)) * step
+            fit = robust_sinusoid(phi[col], t_edge[col], floor=0.5 * step)
+            if fit is None:
+                break
+            (_r0, a, b), n_in = fit
+            if n_in < max(12, 0.2 * n_phi):
+                break
+            delta = math.hypot(a, b)
+            if delta > math.radians(cfg.rim_search_deg):
+                break
+            found = True
+            if delta > 0:
+                z = math.cos(delta) * z + math.sin(delta) * (a * t1 + b * t2) / delta
+                z /= np.linalg.norm(z)
+            if delta < 1e-5:
+                break
+        return (z, n_in) if found else None
 
     # ---- step 2: the levelled, undistorted AoE image (§2.2–2.4, eqs. 5–6) ---------------------
     def levelled_aoe(
@@ -427,48 +729,49 @@ class SnellWindowMethod:
         """Cos 2AoE, sin 2AoE, grey and the in-window mask on a level, zenith-centred grid.
 
         Returns (c2, s2, grey, inside, scale_px_per_rad); the image's centre is the zenith, +x
-        (columns) the body's level starboard axis and −rows its level forward axis.
+        (columns) the body's level starboard axis and −rows its level forward axis. S0, S1, S2 are
+        resampled (bilinear, they are linear in the radiance) and the AoE is formed per output
+        pixel along its own ray.
         """
         cfg = self.config
         c_c_h = c_b_h @ calibration.c_c_b
-        d_h, e_h = evectors_h(pol, calibration, c_c_h, cfg.aop_error_poly_deg, cfg.stokes_grid)
-        e_th, e_ph = meridian_basis(d_h)
-        # eq. 6 in 3-D: the E-vector's angle from the local (true) meridian at each source pixel.
-        aoe = np.arctan2(np.sum(e_h * e_ph, -1), np.sum(e_h * e_th, -1))
-        ok = (pol.dop >= cfg.min_dop) & ~pol.saturated & (pol.s0 > 0)
-        c2 = np.where(ok, np.cos(2 * aoe), 0.0).astype(np.float32)
-        s2 = np.where(ok, np.sin(2 * aoe), 0.0).astype(np.float32)
-        wgt = ok.astype(np.float32)
-        grey = (0.5 * pol.s0).astype(np.float32)
         # Output grid: equidistant about the zenith, radius = the window (+ a little).
         sub = 2.0 if cfg.stokes_grid == "superpixel" else 1.0
         k = cfg.level_scale * calibration.focal_px / sub  # Stokes-grid px per rad
         half = math.ceil(k * (theta_c + math.radians(2.0))) + 2
         n = 2 * half + 1
-        vv, uu = np.mgrid[0:n, 0:n].astype(np.float64)
-        x = (uu - half) / k
-        y = -(vv - half) / k
-        th = np.hypot(x, y)
-        ph = np.arctan2(y, x)
-        d_out = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1)
+        d_out, th, e_th, e_ph = _level_grid(n, k)
         d_cam = d_out @ c_c_h  # h → camera (c_c_h orthonormal: inverse = transpose)
-        u_raw, v_raw, valid = calibration.project(d_cam)
-        # Raw frame coordinates → the Stokes grid (super-pixel (i, j) is centred at raw 2j + ½).
-        off = 0.5 if cfg.stokes_grid == "superpixel" else 0.0
-        map_x = ((u_raw - off) / sub).astype(np.float32)
-        map_y = ((v_raw - off) / sub).astype(np.float32)
+        map_x, map_y, valid = grid_coords(calibration, d_cam, cfg.stokes_grid)
 
-        def remap(a: NDArray[np.float32]) -> FloatArray:
+        def remap(a: NDArray[np.generic]) -> NDArray[np.float32]:
             return cv2.remap(
-                a, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0
-            ).astype(np.float64)
+                np.asarray(a, np.float32),
+                map_x,
+                map_y,
+                cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=0,
+            )
 
-        w_o = remap(wgt)
-        inside = valid & (th <= theta_c - math.radians(cfg.window_margin_deg)) & (w_o > 0.5)
-        safe = np.maximum(w_o, 1e-6)
-        c2_o = np.where(inside, remap(c2) / safe, 0.0)
-        s2_o = np.where(inside, remap(s2) / safe, 0.0)
-        grey_o = np.where(valid & (th <= theta_c), remap(grey), 0.0)
+        s0, s1, s2 = remap(pol.s0), remap(pol.s1), remap(pol.s2)
+        sat = remap(pol.saturated)
+        grey_o = np.where(valid & (th <= theta_c), 0.5 * s0, 0.0)
+        inside = (
+            valid
+            & (th <= theta_c - math.radians(cfg.window_margin_deg))
+            & (sat == 0.0)
+            & (s0 > 0.0)
+            & (np.hypot(s1, s2) >= cfg.min_dop * s0)
+        )
+        aop = 0.5 * np.arctan2(s2[inside], s1[inside])
+        _, e_h = evectors_h(d_cam[inside], aop, calibration, c_c_h, cfg.aop_error_poly_deg)
+        # eq. 6 in 3-D: the E-vector's angle from the local (true) meridian of each output ray.
+        aoe = np.arctan2(np.sum(e_h * e_ph[inside], -1), np.sum(e_h * e_th[inside], -1))
+        c2_o = np.zeros((n, n))
+        s2_o = np.zeros((n, n))
+        c2_o[inside] = np.cos(2 * aoe)
+        s2_o[inside] = np.sin(2 * aoe)
         return c2_o, s2_o, grey_o, inside, k
 
     # ---- step 3: characteristic region, Canny, Hough ⇒ ψ_SM (§2.4) -------------------------------
@@ -522,42 +825,45 @@ class SnellWindowMethod:
     def _symmetry_axis(
         self, c: FloatArray, s: FloatArray, inside: NDArray[np.bool_], m0: float
     ) -> tuple[float, float]:
-        """Axis through the centre about which (cos 2AoE, sin 2AoE) is (even, odd); rms misfit."""
+        """Axis through the centre about which (cos 2AoE, sin 2AoE) is (even, odd); rms misfit.
+
+        The misfit of the mirror about the axis at angle m is the mean over pixels p (both p and
+        its mirror p' inside the window) of (c(p) − c(p'))² + (s(p) + s(p'))². On a polar grid
+        (radius r, angle a; weight r for the area) the mirror of a is 2m − a, so the misfit of
+        every axis m = jΔa/2 is a sum of circular convolutions along a: one FFT pass gives all.
+        The minimum within ± 2 band widths of the Hough estimate is refined by a parabola.
+        """
         cfg = self.config
         n = c.shape[0]
-        half = (n - 1) / 2.0
-        vv, uu = np.mgrid[0:n, 0:n].astype(np.float64)
-        x, y = uu - half, -(vv - half)
-        r = np.hypot(x, y)
-        a = np.arctan2(y, x)
-        c32, s32 = c.astype(np.float32), s.astype(np.float32)
-        ins32 = inside.astype(np.float32)
-        base = inside & (r > 2.0)
+        n_a = 2 * round(math.pi / math.radians(cfg.hough_theta_deg))
+        step = 2.0 * math.pi / n_a
+        mx, my, r = _polar_maps(n, n_a)
 
-        def cost(m: float) -> float:
-            am = 2.0 * m - a
-            mx = (half + r * np.cos(am)).astype(np.float32)
-            my = (half - r * np.sin(am)).astype(np.float32)
-            cm = cv2.remap(c32, mx, my, cv2.INTER_LINEAR)
-            sm = cv2.remap(s32, mx, my, cv2.INTER_LINEAR)
-            im = cv2.remap(ins32, mx, my, cv2.INTER_LINEAR)
-            sel = base & (im > 0.999)
-            if sel.sum() < 20:
-                return math.inf
-            return float(np.mean((c[sel] - cm[sel]) ** 2 + (s[sel] + sm[sel]) ** 2))
+        def polar(a: NDArray[np.generic]) -> NDArray[np.float32]:
+            return cv2.remap(np.asarray(a, np.float32), mx, my, cv2.INTER_LINEAR)
 
-        step = math.radians(cfg.hough_theta_deg)
+        m_in = (polar(inside) > 0.999).astype(np.float64)
+        cp = polar(c).astype(np.float64) * m_in
+        sp = polar(s).astype(np.float64) * m_in
+        q = (cp * cp + sp * sp) * m_in
+        fm, fc, fs, fq = (np.fft.rfft(x, axis=1) for x in (m_in, cp, sp, q))
+        w = r[:, None]
+        num = np.fft.irfft((w * (2.0 * fq * fm - 2.0 * fc * fc + 2.0 * fs * fs)).sum(0), n_a)
+        den = np.fft.irfft((w * fm * fm).sum(0), n_a)
+        cnt = np.fft.irfft((fm * fm).sum(0), n_a)
+        costs = np.where((cnt > 19.5) & (den > 0), num / np.maximum(den, 1e-12), np.inf)
+        m_grid = np.arange(n_a) * (step / 2.0)  # the axis of mirror index j: a → j·Δa − a
+        off = (m_grid - m0 + math.pi / 2) % math.pi - math.pi / 2
         span = 2.0 * math.radians(cfg.meridian_band_deg)
-        grid = m0 + np.arange(-span, span + 0.5 * step, step)
-        costs = np.array([cost(float(g)) for g in grid])
-        i = int(np.argmin(costs))
-        m = float(grid[i])
-        if 0 < i < len(grid) - 1 and np.all(np.isfinite(costs[i - 1 : i + 2])):
-            c_l, c_0, c_r = costs[i - 1 : i + 2]
-            den = c_l - 2 * c_0 + c_r
-            if den > 0:
-                m += 0.5 * step * (c_l - c_r) / den
-        return m, math.sqrt(max(float(costs[i]), 0.0)) / 2.0
+        cand = np.flatnonzero(np.abs(off) <= span + 1e-12)
+        j = int(cand[np.argmin(costs[cand])])
+        m = m0 + float(off[j])
+        c_l, c_0, c_r = costs[(j - 1) % n_a], costs[j], costs[(j + 1) % n_a]
+        if np.all(np.isfinite([c_l, c_0, c_r])):
+            den2 = c_l - 2 * c_0 + c_r
+            if den2 > 0:
+                m += 0.5 * (step / 2.0) * (c_l - c_r) / den2
+        return m, math.sqrt(max(float(c_0), 0.0)) / 2.0 if math.isfinite(c_0) else math.inf
 
     # ---- the whole method ----------------------------------------------------------------------
     def solve(
@@ -573,14 +879,15 @@ class SnellWindowMethod:
             return no_fix(self.name, f"night (sun elevation {math.degrees(el):.1f}°)")
         if el > math.radians(cfg.max_sun_elevation_deg):
             return no_fix(self.name, "sun near the zenith: no solar meridian")
-        pol = to_stokes(raw, calibration, cfg.stokes_grid)
-        wc = self.window_centre(pol, calibration, ctx.water_index)
+        raw_w, cal_w, binning = self.working_frame(raw, calibration)
+        pol = to_stokes(raw_w, cal_w, cfg.stokes_grid)
+        wc = self.window_centre(pol, cal_w, ctx.water_index)
         if isinstance(wc, str):
             return no_fix(self.name, wc)
         c_b_h = euler_to_dcm(wc.roll_rad, wc.pitch_rad, 0.0)
         n_w = ctx.water_index
         theta_c = math.asin(1.0 / n_w) if n_w > 1.0 else math.pi / 2
-        c2, s2, grey, inside, k = self.levelled_aoe(pol, calibration, c_b_h, theta_c)
+        c2, s2, grey, inside, k = self.levelled_aoe(pol, cal_w, c_b_h, theta_c)
         radius_px = k * theta_c
         mer = self.meridian(c2, s2, inside, radius_px)
         if isinstance(mer, str):
@@ -631,4 +938,6 @@ class SnellWindowMethod:
             hough_lines=n_lines,
             window_contrast=wc.contrast,
             meridian_rad=m,
+            rim_azimuths=wc.rim_azimuths,
+            work_binning=binning,
         )
