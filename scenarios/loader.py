@@ -32,6 +32,7 @@ from scenarios.schema import (
     NAV_VARIANTS,
     SCENES,
     SKY_POLARIZATION_MODELS,
+    SUN_MEASUREMENTS,
     TANK_FLOOR_DEPTH_M,
     TANK_LENGTH_M,
     TANK_MAX_DEPTH_M,
@@ -923,6 +924,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
         depth_aiding=t.boolean("depth_aiding", default=True),
         initial_error=t.boolean("initial_error", default=True),
         gate_probability=t.number("gate_probability", GATE_PROBABILITY, default=0.999),
+        sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="vector"),
         tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
     )
     t.finish()

@@ -333,6 +333,7 @@ class Optics:
 #: aids the filter (POL/INS, LIG/INS, ...).
 NAV_VARIANTS: tuple[str, ...] = ("ins", "lig", "pol", "roia", "snell", "moi", "patz", "ht")
 NAV_TUNINGS: tuple[str, ...] = ("imu", "paper")
+SUN_MEASUREMENTS: tuple[str, ...] = ("vector", "azimuth")
 
 
 @dataclass(frozen=True, slots=True)
@@ -352,6 +353,9 @@ class Navigation:
         gate_probability: Chi-square probability of the innovation (NIS) gate; a measurement
             whose NIS exceeds that quantile is rejected and recorded. 1.0 turns gating off (every
             measurement is fused, as the LIG paper's filter does).
+        sun_measurement: ``"vector"``: the full solar vector aids all three attitude angles (the
+            LIG paper's eqs. 20–24); ``"azimuth"``: only its azimuth (the heading), leaving roll
+            and pitch to gravity — robust to the compass's elevation bias under water.
         tuning: ``"imu"``: P0 and Q from the declared IMU's datasheet (``EskfConfig.for_imu``);
             ``"paper"``: the LIG paper's §3.3 values as printed (overconfident for the paper's
             own IMU model: docs/navigation.md).
@@ -364,6 +368,7 @@ class Navigation:
     depth_aiding: bool = True
     initial_error: bool = True
     gate_probability: float = 0.999
+    sun_measurement: str = "vector"
     tuning: str = "imu"
 
     @property

@@ -25,8 +25,8 @@ from twin.guidance import Guidance
 from twin.messages import Reading
 from twin.navsources import EstimateNav, NavSource, TruthNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
+from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
-from twin.onboard.ins import rotvec_to_dcm
 from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
 from twin.plant import Plant, PlantConfig
 
@@ -228,15 +228,19 @@ def _navigators(
     if not nav.variants:
         return {}
     imu = suite["imu"].spec
+    # The world's gravity does not change with depth (sensors/imu.py): the vehicle's INS is
+    # given the same model, so that the twin has no gravity-model error of its own.
+    ins = InsConfig(free_air_gravity=False)
     eskf = (
-        EskfConfig(gate_probability=nav.gate_probability)
+        EskfConfig(gate_probability=nav.gate_probability, ins=ins)
         if nav.tuning == "paper"
-        else EskfConfig.for_imu(_imu_grade(imu), gate_probability=nav.gate_probability)
+        else EskfConfig.for_imu(_imu_grade(imu), gate_probability=nav.gate_probability, ins=ins)
     )
     cfg = NavigatorConfig(
         compass_rate_hz=nav.compass_rate_hz,
         gravity_aiding=nav.gravity_aiding,
         depth_aiding=nav.depth_aiding,
+        sun_azimuth_only=nav.sun_measurement == "azimuth",
         eskf=eskf,
     )
     tr = plant.truth()

@@ -638,3 +638,53 @@ def test_ins_state_arrays_are_read_only_views() -> None:
     est = nav.estimate()
     est.covariance[0, 0] = 99.0  # the estimate holds copies
     assert nav.P[0, 0] != 99.0
+
+
+def test_azimuth_only_sun_update_matches_its_finite_difference_jacobian() -> None:
+    c = euler_to_dcm(*NOMINAL["rpy"])
+    s_b = c.T @ SUN_ENU
+    rho = math.hypot(SUN_ENU[0], SUN_ENU[1])
+    t = np.array([SUN_ENU[1], -SUN_ENU[0], 0.0]) / rho  # horizontal tangent: the azimuth row
+
+    def z(x: np.ndarray) -> float:
+        return float(t @ (rotvec_to_dcm(*(-x[0:3])) @ c @ s_b - SUN_ENU))
+
+    jac = np.array([(z(e * 1e-6) - z(-e * 1e-6)) / 2e-6 for e in np.eye(DIM)])
+    h = np.zeros(DIM)
+    h[0:3] = np.cross(t, SUN_ENU)
+    np.testing.assert_allclose(jac, h, atol=1e-9)
+    # A pure azimuth error of δ (rad) appears as z ≈ −ρ δ (sun turned clockwise by the heading).
+    assert abs(h[2]) == pytest.approx(rho, rel=1e-12)
+
+
+def test_azimuth_only_sun_update_ignores_an_elevation_bias() -> None:
+    """A sun 10° too high tilts the estimate through a full-vector update, not azimuth-only."""
+    rpy = (0.0, 0.0, RPY[2])
+    c = euler_to_dcm(*rpy)
+    up = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(SUN_ENU, up)
+    biased_n = rotvec_to_dcm(*(axis / np.linalg.norm(axis) * math.radians(10.0))) @ SUN_ENU
+    assert math.degrees(math.acos(biased_n[2])) < math.degrees(math.acos(SUN_ENU[2])) - 9.9
+    s_b = c.T @ biased_n  # same azimuth as the truth, elevation 10° too high
+    cov = (0.5 * math.pi / 180) ** 2 * (np.eye(3) - np.outer(s_b, s_b))
+    tilt = {}
+    for mode in (False, True):
+        nav = Eskf(
+            EskfConfig(gate_probability=1.0), NavState(0.0, LAT, LON, -DEPTH, np.zeros(3), c)
+        )
+        for _ in range(20):
+            nav.update_sun(sun_body=s_b, sun_enu=SUN_ENU, covariance_body=cov, azimuth_only=mode)
+        e = nav.estimate()
+        tilt[mode] = math.degrees(math.hypot(e.roll - rpy[0], e.pitch - rpy[1]))
+        head_err = abs(wrap_pi(math.radians(e.heading_deg) + rpy[2]))
+        if mode:
+            assert math.degrees(head_err) < 0.05
+    assert tilt[False] > 1.0  # the full vector drags the level towards the biased sun
+    assert tilt[True] < 1e-6  # azimuth-only leaves roll and pitch alone
+
+
+def test_azimuth_only_sun_update_is_skipped_near_the_zenith() -> None:
+    nav = _nav()
+    zenith = np.array([0.01, 0.0, 1.0]) / math.hypot(0.01, 1.0)
+    res = nav.update_sun(sun_body=nav.ins.c_bn.T @ zenith, sun_enu=zenith, azimuth_only=True)
+    assert not res.applied and res.reason == "sun near the zenith"

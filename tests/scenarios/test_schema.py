@@ -696,8 +696,8 @@ def test_optics_and_polarimeter_settings_validate_and_round_trip() -> None:
     assert s.optics.sky_polarization == "berry" and s.optics.turbidity == 4.0
     assert parse_scenario(s.to_dict()) == s
     # Without a polarimeter the key is absent (TOML has no null) and reads back as None.
-    assert "polarimeter" not in load("default").to_dict()["sensors"]
-    assert load("default").sensors.polarimeter is None
+    assert "polarimeter" not in load("lawnmower_10m").to_dict()["sensors"]
+    assert load("lawnmower_10m").sensors.polarimeter is None
 
 
 @pytest.mark.parametrize(

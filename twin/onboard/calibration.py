@@ -3,7 +3,8 @@
 The world renders with ``sensors.polarimeter.camera``; the vehicle computer knows only this
 calibration (what a checkerboard session and the mechanical drawing would give it) and must not
 import the renderer. The conventions are the renderer's, so that a perfect calibration reproduces
-its rays exactly (tests/sensors/polarimeter/test_calibration.py checks that against the world camera):
+its rays exactly (tests/sensors/polarimeter/test_calibration.py checks that against the world
+camera):
 
 * camera frame c = the ``polarimeter`` site frame: x starboard, y forward, z the optical axis;
 * image column u along +x, row v along −y, arrays ``[v, u]``, pixel centres at integers;

@@ -882,8 +882,16 @@ class Eskf:
         sun_body: FloatArray | None = None,
         sun_enu: FloatArray | None = None,
         covariance_body: FloatArray | None = None,
+        azimuth_only: bool = False,
     ) -> UpdateResult:
         """Solar-vector update (eqs. 20–24) from a compass fix or explicit vectors.
+
+        ``azimuth_only=True`` keeps only the component of the residual along the horizontal
+        tangent of s^n (the sun's azimuth, i.e. the heading): a 1-D update that leaves roll and
+        pitch to gravity. Use it when the compass's elevation is biased (under water, the
+        refracted and multiply scattered light moves the apparent sun's elevation more than its
+        azimuth: benchmarks/results/compass_underwater.md). A sun within 5° of the zenith has no
+        usable azimuth: the update is skipped with that reason.
 
         Args:
             fix: A :class:`~twin.onboard.compass.base.CompassFix` (anything with ``ok``,
@@ -892,6 +900,7 @@ class Eskf:
             sun_body: Unit solar vector measured in the body frame.
             sun_enu: Unit solar vector from the ephemeris (ENU).
             covariance_body: 3×3 covariance of ``sun_body``; None: the configured R_s.
+            azimuth_only: Use only the azimuth (heading) component (see above).
         """
         if fix is not None:
             if not getattr(fix, "ok", False):
@@ -909,9 +918,15 @@ class Eskf:
             if covariance_body is None
             else self._covariance("covariance_body", covariance_body, 3, psd_only=True)
         )
+        if azimuth_only:
+            rho = math.hypot(s_n[0], s_n[1])
+            if rho < math.sin(math.radians(5.0)):
+                return UpdateResult("sun", self.t, False, reason="sun near the zenith")
+            basis: tuple[Triple, ...] = ((s_n[1] / rho, -s_n[0] / rho, 0.0),)
+        else:
+            basis = _tangent_basis(s_n)
         self.propagate_covariance()
         c0, c1, c2, c3, c4, c5, c6, c7, c8 = self.ins._c
-        e1, e2 = _tangent_basis(s_n)
         # Predicted minus measured: C ŝ^b − s^n, on the plane normal to s^n (basis e1, e2).
         bx, by, bz = s_b
         d = (
@@ -919,22 +934,21 @@ class Eskf:
             c3 * bx + c4 * by + c5 * bz - s_n[1],
             c6 * bx + c7 * by + c8 * bz - s_n[2],
         )
-        z = np.array([_dot(e1, d), _dot(e2, d)])
+        z = np.array([_dot(e, d) for e in basis])
         # H = Eᵀ [s^n×]: row i is (e_i × s^n)ᵀ on φ.
-        h = np.zeros((2, DIM))
-        h[0, PHI] = _cross(e1, s_n)
-        h[1, PHI] = _cross(e2, s_n)
+        h = np.zeros((len(basis), DIM))
+        for i, e in enumerate(basis):
+            h[i, PHI] = _cross(e, s_n)
         # R = Eᵀ C Σ_b Cᵀ E = G Σ_b Gᵀ with the rows of G = Eᵀ C = (Cᵀ e_i)ᵀ.
         g = np.array(
             [
                 [c0 * e[0] + c3 * e[1] + c6 * e[2], c1 * e[0] + c4 * e[1] + c7 * e[2],
                  c2 * e[0] + c5 * e[1] + c8 * e[2]]
-                for e in (e1, e2)
+                for e in basis
             ]
         )  # fmt: skip
         r2 = g @ r_b @ g.T
-        (a, b), (_, dd) = r2.tolist()
-        if not (a > 0.0 and a * dd - b * b > 0.0):
+        if not np.all(np.linalg.eigvalsh(r2) > 0.0):
             raise ValueError(
                 "Eskf.update_sun covariance_body: singular on the plane normal to the sun "
                 "(must be positive definite there)"

@@ -71,6 +71,7 @@ class NavigatorConfig:
             since the last one).
         gravity_aiding: Use gravity updates.
         depth_aiding: Use depth updates.
+        sun_azimuth_only: Fuse only the solar vector's azimuth (``Eskf.update_sun``).
         eskf: Filter parameters.
     """
 
@@ -78,6 +79,7 @@ class NavigatorConfig:
     gravity_rate_hz: float = 10.0
     gravity_aiding: bool = True
     depth_aiding: bool = True
+    sun_azimuth_only: bool = False
     eskf: EskfConfig = field(default_factory=EskfConfig)
 
     def __post_init__(self) -> None:
@@ -187,7 +189,7 @@ class Navigator:
         self.updates["frames"] += 1
         update = None
         if fix.ok:
-            update = self.filter.update_sun(fix)
+            update = self.filter.update_sun(fix, azimuth_only=self.config.sun_azimuth_only)
             self.updates["sun" if update.applied else "sun_rejected"] += 1
         else:
             self.updates["no_fix"] += 1
