@@ -1,0 +1,63 @@
+"""The LIG paper's sea trials in the twin: LIG/INS beats POL/INS, and the gap widens with depth.
+
+The paper (hu2024 §4.3) reports heading errors POL/INS 3.6° vs LIG/INS 1.6° at 10 m and 16.1° vs
+2.2° at 15 m. The twin's numbers differ (benchmarks/results/sea_trials.md); the trend is what is
+asserted: under water the polarization pattern's apparent sun drifts towards the zenith with depth
+(multiple scattering, docs/polarimeter.md), the intensity pattern's much less, and a filter that
+fuses the full solar vector (as the paper's does) inherits the difference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import scenarios
+from twin.run import run_scenario
+
+
+def _variants(depth: int, duration_s: float, tmp: Path) -> dict:
+    sc = scenarios.load(f"sea_trial_{depth}m")
+    sc = dataclasses.replace(
+        sc, duration_s=duration_s, recording=dataclasses.replace(sc.recording, camera=False)
+    )
+    return run_scenario(sc, tmp / f"d{depth}", camera=False)["navigation"]["variants"]
+
+
+def test_the_first_minute_of_both_trials_shows_the_trend(tmp_path) -> None:
+    gap = {}
+    for depth in (10, 15):
+        v = _variants(depth, 60.0, tmp_path)
+        pol, lig = v["pol"], v["lig"]
+        assert pol["compass"]["sun_updates_applied"] == pol["compass"]["fixes"] > 50  # no gate
+        assert lig["heading_rmse_deg"] < pol["heading_rmse_deg"]
+        # POL's zenith-biased sun drags the level: its roll error is several degrees, LIG's is not.
+        assert pol["roll_rmse_deg"] > 3.0 > 1.0 > lig["roll_rmse_deg"]
+        gap[depth] = pol["heading_rmse_deg"] - lig["heading_rmse_deg"]
+    assert gap[15] > gap[10] > 0
+
+
+@pytest.mark.slow
+def test_the_sea_trials_from_the_cli_compare_pol_and_lig(tmp_path) -> None:
+    rmse = {}
+    for depth in (10, 15):
+        out = tmp_path / f"st{depth}"
+        proc = subprocess.run(
+            [sys.executable, "-m", "twin.cli", "run", f"sea_trial_{depth}m", "--out", str(out),
+             "--quiet", "--no-camera"],
+            capture_output=True, text=True, timeout=1800,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        assert "pol:" in proc.stdout and "lig:" in proc.stdout
+        m = json.loads((out / "metrics.json").read_text())
+        assert m["status"] == "mission_complete"
+        rmse[depth] = {k: v["heading_rmse_deg"] for k, v in m["navigation"]["variants"].items()}
+    for depth in (10, 15):
+        assert rmse[depth]["lig"] < rmse[depth]["ins"] < rmse[depth]["pol"]
+    assert rmse[15]["pol"] - rmse[15]["lig"] > rmse[10]["pol"] - rmse[10]["lig"]
+    assert rmse[15]["lig"] > rmse[10]["lig"]  # LIG/INS also degrades with depth, less
