@@ -17,7 +17,6 @@ Onboard side: it sees only readings and the vehicle's declared knowledge
 from __future__ import annotations
 
 import datetime as dt
-import functools
 import math
 from dataclasses import dataclass, field
 
@@ -98,18 +97,9 @@ class CompassEvent:
     update: UpdateResult | None
 
 
-@functools.lru_cache(maxsize=4096)
-def _sun_enu_cached(utc_iso: str, lat_e6: int, lon_e6: int) -> tuple[float, float, float]:
-    # Variants processing the same frame share one SPA evaluation (5–20 ms each).
-    s = sun_direction_enu(dt.datetime.fromisoformat(utc_iso), lat_e6 * 1e-6, lon_e6 * 1e-6)
-    return (float(s[0]), float(s[1]), float(s[2]))
-
-
 def sun_enu_at(utc: dt.datetime, latitude_deg: float, longitude_deg: float) -> FloatArray:
-    """Ephemeris solar vector (ENU), cached per instant and micro-degree of position."""
-    return np.array(
-        _sun_enu_cached(utc.isoformat(), round(latitude_deg * 1e6), round(longitude_deg * 1e6))
-    )
+    """Ephemeris solar vector (ENU) for a frame (``twin.onboard.ephemeris``, knot-cached)."""
+    return sun_direction_enu(utc, latitude_deg, longitude_deg)
 
 
 class Navigator:
