@@ -74,6 +74,7 @@ def test_the_recording_holds_the_estimates_errors_and_polarimeter_images(short_r
         "/nav/ins/nees_attitude",
         "/nav/lig/compass_heading_deg",
         "/polarimeter/aop",
+        "/polarimeter/intensity/true_sun",
     ):
         assert rows.get(entity, 0) > 0, entity
     assert rows["/nav/heading_deg/lig"] == 300

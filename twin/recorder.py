@@ -551,6 +551,34 @@ class Recorder:
         self._rec.log(entity, archetype)
         self._maybe_flush(t)
 
+    def log_points2d(
+        self,
+        entity: str,
+        t: float,
+        points: np.ndarray,
+        *,
+        radius: float = 4.0,
+        color: tuple[int, int, int] = _TRUTH_COLOR,
+        label: str | None = None,
+    ) -> None:
+        """Log image-space points now (e.g. a truth marker over a camera image).
+
+        Args:
+            entity: Entity path; a child of an image's entity draws over that image.
+            t: Sim time (s).
+            points: (N, 2) pixel coordinates (u, v); an empty array clears the marker.
+            radius: Marker radius in pixels.
+            color: RGB.
+            label: Optional text shown with the points.
+        """
+        pts = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+        self._set_time(t)
+        self._rec.log(
+            entity,
+            rr.Points2D(pts, radii=radius, colors=[color], labels=[label] if label else None),
+        )
+        self._maybe_flush(t)
+
     def log_text(self, t: float, text: str, level: str = "INFO") -> None:
         """Log one event message to ``/log``.
 

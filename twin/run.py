@@ -342,6 +342,16 @@ def _log_polarimeter(rec: Recorder, reading: Reading, cam: Polarimeter) -> None:
     rec.log_image("/polarimeter/intensity", reading.t, images.intensity_u8(pol.s0))
     rec.log_image("/polarimeter/aop", reading.t, images.aop_rgb(pol.aop, mask))
     rec.log_image("/polarimeter/dop", reading.t, images.dop_rgb(pol.dop, mask))
+    # Truth layer (truth channel, for people only): where the refracted sun really is, drawn over
+    # the intensity image (super-pixel grid: raw pixel (u, v) sits at ((u − ½)/2, (v − ½)/2)).
+    tr = cam.truth
+    if tr is not None and abs(tr.t - reading.t) < 1e-9:
+        sun = (
+            np.array([[(tr.sun_pixel[0] - 0.5) / 2, (tr.sun_pixel[1] - 0.5) / 2]])
+            if tr.sun_pixel is not None
+            else np.zeros((0, 2))
+        )
+        rec.log_points2d("/polarimeter/intensity/true_sun", reading.t, sun, label="true sun")
 
 
 def _log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
