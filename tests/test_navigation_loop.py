@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rerun.chunk import RrdReader
+from rrd_helpers import entities
 
 import scenarios
 from scenarios.schema import Navigation, WaypointLeg
@@ -25,17 +25,6 @@ def _short_trial(duration_s: float = 30.0, variants: tuple[str, ...] = ("ins", "
         navigation=dataclasses.replace(sc.navigation, variants=variants),
         recording=dataclasses.replace(sc.recording, camera=False),
     )
-
-
-def _entities(rrd: Path) -> dict[str, int]:
-    rows: dict[str, int] = {}
-    for line in RrdReader(rrd).store().summary().splitlines():
-        parts = line.split()
-        if not parts or "static=True" in line:
-            continue
-        n = next((int(p.split("=")[1]) for p in parts if p.startswith("rows=")), 0)
-        rows[parts[0]] = rows.get(parts[0], 0) + n
-    return rows
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +55,7 @@ def test_every_variant_is_scored_against_truth(short_run) -> None:
 
 def test_the_recording_holds_the_estimates_errors_and_polarimeter_images(short_run) -> None:
     out, _ = short_run
-    rows = _entities(out / "recording.rrd")
+    rows = entities(out / "recording.rrd")
     for entity in (
         "/nav/heading_deg/ins",
         "/nav/heading_deg/lig",

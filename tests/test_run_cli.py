@@ -14,22 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from rerun.chunk import RrdReader
+from rrd_helpers import entities
 
 import scenarios
 from twin.cli import main
 from twin.run import run_scenario
-
-
-def _entities(rrd: Path) -> dict[str, int]:
-    """Entity path -> number of (non-static) rows in the recording."""
-    rows: dict[str, int] = {}
-    for line in RrdReader(rrd).store().summary().splitlines():
-        parts = line.split()
-        if not parts or "static=True" in line:
-            continue
-        n = next((int(p.split("=")[1]) for p in parts if p.startswith("rows=")), 0)
-        rows[parts[0]] = rows.get(parts[0], 0) + n
-    return rows
 
 
 def _column(rrd: Path, entity: str, component: str) -> np.ndarray:
@@ -69,7 +58,7 @@ def test_tank_trial_completes_and_writes_recording_and_metrics(tank_run) -> None
 def test_recording_holds_truth_readings_commands_and_scene(tank_run) -> None:
     out, metrics = tank_run
     rrd = out / "recording.rrd"
-    ents = _entities(rrd)
+    ents = entities(rrd)
     for e in (
         "/world/auv",
         "/truth/depth_m",
@@ -91,7 +80,7 @@ def test_chase_camera_is_logged_when_gl_is_available(tank_run) -> None:
 
     out, _ = tank_run
     has_gl = hasattr(mujoco, "GLContext") and os.environ.get("MUJOCO_GL", "") in ("egl", "osmesa")
-    ents = _entities(out / "recording.rrd")
+    ents = entities(out / "recording.rrd")
     assert (ents.get("/camera/chase", 0) > 0) == has_gl
 
 
@@ -195,5 +184,5 @@ def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Pat
     m = json.loads((out / "metrics.json").read_text())
     assert m["complete"] is False and m["status"] == "interrupted"
     assert 0 < m["sim_time_s"] < 1080
-    ents = _entities(out / "recording.rrd")  # footer written: store() reads it
+    ents = entities(out / "recording.rrd")  # footer written: store() reads it
     assert ents["/world/auv"] > 0

@@ -413,6 +413,35 @@ def resolve_by_intensity(
     return (s_h if contrast > 0 else -s_h), contrast, True
 
 
+@dataclass(frozen=True)
+class FramePrologue:
+    """What LIG and POL both start a frame with (input checks, the sun, the analysis grid)."""
+
+    raw: NDArray[np.generic]
+    sun_enu: FloatArray
+    water_index: float
+    geometry: AnalysisGeometry
+
+
+def frame_prologue(
+    raw: object,
+    calibration: CameraCalibration,
+    ctx: CompassContext,
+    method: str,
+    analysis_max_width_px: int,
+) -> FramePrologue | CompassFix:
+    """Check the frame, get the ephemeris sun, and the analysis grid; a night fix if dark."""
+    checked = check_raw(raw, calibration)
+    sun_enu = solar_vector_enu(ctx)
+    night = night_or_none(ctx, sun_enu, method)
+    if night is not None:
+        return night
+    n_w = float(ctx.water_index)
+    m = analysis_factor(calibration, analysis_max_width_px)
+    geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
+    return FramePrologue(checked, sun_enu, n_w, geo)
+
+
 @register
 class LigCompass:
     """Light-intensity-gradient solar tracking (Hu et al. 2024, §2, eqs. 5–15)."""
@@ -426,14 +455,10 @@ class LigCompass:
         self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
     ) -> CompassFix:
         cfg = self.config
-        raw = check_raw(raw, calibration)
-        sun_enu = solar_vector_enu(ctx)
-        night = night_or_none(ctx, sun_enu, self.name)
-        if night is not None:
-            return night
-        n_w = float(ctx.water_index)
-        m = analysis_factor(calibration, cfg.analysis_max_width_px)
-        geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
+        pro = frame_prologue(raw, calibration, ctx, self.name, cfg.analysis_max_width_px)
+        if isinstance(pro, CompassFix):
+            return pro
+        raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
         intensity, sat = block_intensity(raw, calibration, geo)
 
         # Eqs. 6–7: in-window pixels from the attitude hint.
@@ -544,7 +569,7 @@ class LigCompass:
             ambiguity_contrast=contrast,
             ambiguity_by_intensity=float(by_intensity),
             ambiguity_agrees_with_elevation=float(s_h[2] >= 0),
-            analysis_block_px=float(m),
+            analysis_block_px=float(geo.m),
             gradient_noise_dn=sigma_g,
             mean_intensity_dn=mean_i,
         )

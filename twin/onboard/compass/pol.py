@@ -50,18 +50,14 @@ from twin.onboard.calibration import CameraCalibration
 from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
 from twin.onboard.compass.lig import (
     AnalysisGeometry,
-    analysis_factor,
-    analysis_geometry,
     block_saturation,
-    check_raw,
     critical_angle,
+    frame_prologue,
     level_rotation,
     meridian_basis,
-    night_or_none,
     refract_to_air,
     resolve_by_intensity,
     smallest_eigenvector,
-    solar_vector_enu,
 )
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
@@ -153,14 +149,10 @@ class PolCompass:
         self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
     ) -> CompassFix:
         cfg = self.config
-        raw = check_raw(raw, calibration)
-        sun_enu = solar_vector_enu(ctx)
-        night = night_or_none(ctx, sun_enu, self.name)
-        if night is not None:
-            return night
-        n_w = float(ctx.water_index)
-        m = analysis_factor(calibration, cfg.analysis_max_width_px)
-        geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
+        pro = frame_prologue(raw, calibration, ctx, self.name, cfg.analysis_max_width_px)
+        if isinstance(pro, CompassFix):
+            return pro
+        raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
         pol = binned_stokes(raw, calibration, geo)
         sat = block_saturation(raw, calibration, geo)
 
@@ -246,7 +238,7 @@ class PolCompass:
             eigen_gap=sol.eigen_gap,
             ambiguity_contrast=contrast,
             ambiguity_agrees_with_intensity=float(contrast >= 0),
-            analysis_block_px=float(m),
+            analysis_block_px=float(geo.m),
             mean_dop=float(dop.mean()),
             mean_intensity_dn=mean_i,
         )
