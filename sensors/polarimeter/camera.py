@@ -870,28 +870,101 @@ class Camera:
         res = np.empty((3, n), dtype=dtype) if out is None else out.reshape(3, n)
         if res.shape != (3, n) or res.dtype != dtype:
             raise ValueError(f"out must be a {dtype} array of shape {(3, *self.shape)}")
-        basis = self._sensor_basis_flat
-        # Rows: (up·r_s, up·t_s), then the same with North for the zenith fallback.
-        proj = np.zeros((4, 6), dtype=dtype)
-        proj[0, :3] = proj[1, 3:] = c[2]
-        proj[2, :3] = proj[3, 3:] = c[1]
-        for i0 in range(0, n, _CHUNK):
-            i1 = min(i0 + _CHUNK, n)
-            cs = proj[:2] @ basis[:, i0:i1]  # (cos χ, sin χ) · |horizontal part of up|
-            cc, ss = cs[0], cs[1]
-            n2 = cc * cc + ss * ss
-            zen = np.flatnonzero(n2 == 0.0)
-            if zen.size:
-                north = proj[2:] @ basis[:, i0 + zen]
-                cc[zen], ss[zen] = north[0], north[1]
-                n2[zen] = 1.0
-            c2 = (cc * cc - ss * ss) / n2  # cos 2χ
-            s2 = 2.0 * cc * ss / n2  # sin 2χ
-            q, u = flat[i0:i1, 1], flat[i0:i1, 2]
-            res[0, i0:i1] = flat[i0:i1, 0]
-            res[1, i0:i1] = c2 * q + s2 * u  # stokes.rotate_reference: (Q, U) turn by −2χ
-            res[2, i0:i1] = c2 * u - s2 * q
+        _meridian_to_sensor(flat, c, self._sensor_basis_flat, res.T)
         return np.moveaxis(res.reshape(3, *self.shape), 0, -1)
+
+    def sensor_basis_at(self, index: ArrayLike) -> FloatArray:
+        """(6, N) the sensor axes r_s, t_s (:meth:`sensor_stokes_from_meridian`) of some pixels.
+
+        ``index`` holds flat pixel indices (row-major, ``v * width + u``). Meridional mapping only.
+        """
+        return np.take(self._sensor_basis_flat, np.asarray(index), axis=1)
+
+
+def sensor_basis(rays: ArrayLike, dtype: DTypeLike = np.float32) -> FloatArray:
+    """(6, N) the sensor x axis r_s = R_p x̂ and y axis t_s = p × r_s of (N, 3) rays p.
+
+    The meridional mapping (module docstring) at arbitrary rays — e.g. the points of a coarse grid
+    between pixel centres — for :func:`meridian_to_sensor_stokes`.
+    """
+    p = np.asarray(rays, dtype=np.float64).reshape(-1, 3).T
+    r_s = np.stack(_meridional_sensor_reference(p[0], p[1], p[2]))
+    t_s = np.cross(p, r_s, axis=0)
+    return np.concatenate([r_s, t_s]).astype(dtype)
+
+
+def meridian_to_sensor_stokes(
+    stokes: ArrayLike, rotation: ArrayLike, basis: FloatArray, out: FloatArray | None = None
+) -> FloatArray:
+    """:meth:`Camera.sensor_stokes_from_meridian` for any set of N rays given by their ``basis``.
+
+    Args:
+        stokes: (N, 3) ENU-meridian-referenced Stokes of the light along −(C · ray).
+        rotation: C_cam^n (3×3 rotation; not re-validated here: the caller's frame attitude).
+        basis: (6, N) :func:`sensor_basis` (or :meth:`Camera.sensor_basis_at`) of the rays.
+        out: Optional (N, 3) buffer of the basis dtype.
+
+    Returns:
+        (N, 3) sensor-plane Stokes (reference ``SENSOR_REFERENCE``), the basis dtype.
+    """
+    s = np.asarray(stokes)
+    n = basis.shape[1]
+    if s.shape != (n, 3):
+        raise ValueError(f"stokes must have shape {(n, 3)}, got {s.shape}")
+    res = np.empty((n, 3), dtype=basis.dtype) if out is None else out
+    _meridian_to_sensor(s, np.asarray(rotation, dtype=np.float64), basis, res)
+    return res
+
+
+def _meridian_to_sensor(
+    flat: FloatArray, c: NDArray[np.float64], basis: FloatArray, res: FloatArray
+) -> None:
+    """res[i] = sensor-plane Stokes of meridian Stokes flat[i] (both (N, 3), res may be strided).
+
+    With up_c = Cᵀẑ, (cos χ, sin χ) ∝ (up_c·r_s, up_c·t_s) (see
+    :meth:`Camera.sensor_stokes_from_meridian`); North's projections stand in at the exact zenith.
+    """
+    n = basis.shape[1]
+    dtype = basis.dtype
+    # Rows: (up·r_s, up·t_s), then the same with North for the zenith fallback.
+    proj = np.zeros((4, 6), dtype=dtype)
+    proj[0, :3] = proj[1, 3:] = c[2]
+    proj[2, :3] = proj[3, 3:] = c[1]
+    chunk = min(_CHUNK, max(n, 1))
+    buf = np.empty((4, chunk), dtype=dtype)
+    for i0 in range(0, n, chunk):
+        i1 = min(i0 + chunk, n)
+        m = i1 - i0
+        cc, ss, c2, s2 = (row[:m] for row in buf)
+        cs = np.matmul(proj[:2], basis[:, i0:i1])  # (cos χ, sin χ) · |horizontal part of up|
+        cc[...], ss[...] = cs[0], cs[1]
+        np.multiply(cc, cc, out=c2)
+        np.multiply(ss, ss, out=s2)
+        n2 = cs[0]
+        np.add(c2, s2, out=n2)
+        zen = np.flatnonzero(n2 == 0.0)
+        if zen.size:
+            north = proj[2:] @ basis[:, i0 + zen]
+            cc[zen], ss[zen] = north[0], north[1]
+            c2[zen], s2[zen] = north[0] ** 2, north[1] ** 2
+            n2[zen] = 1.0
+        c2 -= s2
+        c2 /= n2  # cos 2χ
+        np.multiply(cc, ss, out=s2)
+        s2 *= 2.0
+        s2 /= n2  # sin 2χ
+        q, u = flat[i0:i1, 1], flat[i0:i1, 2]
+        o = res[i0:i1]
+        o[:, 0] = flat[i0:i1, 0]
+        # stokes.rotate_reference: (Q, U) turn by −2χ.
+        np.multiply(c2, q, out=cc)
+        np.multiply(s2, u, out=ss)
+        cc += ss
+        o[:, 1] = cc
+        np.multiply(c2, u, out=cc)
+        np.multiply(s2, q, out=ss)
+        cc -= ss
+        o[:, 2] = cc
 
 
 def _meridian_reference_in_camera(rays: FloatArray, c: NDArray[np.float64]) -> FloatArray:

@@ -79,10 +79,12 @@ in cache (numpy on this class of machine is memory-bound: ~4× faster than whole
 in the input dtype (float32 for rendering, float64 for the 1e-6 tests). Directions may come in
 any frame F with ``rotation`` = C_F^n (e.g. camera rays and the camera attitude): the rotation is
 applied block by block, so no world-ray frame is ever written to memory; pass ``out=`` to reuse
-the output frame. Cost is ~25–30 ns a direction for Rayleigh + a CIE clear sky on one core of the
-development VM (≈ 9 ms for 612×512, 150–190 ms for 2448×2048), about 1.7× that for Berry: at full
-resolution, evaluate the smooth sky once per 2×2 polarizer super-pixel (a binning-2
-:class:`~sensors.polarimeter.camera.Camera` has exactly those centres) or coarser.
+the output frame. exp is OpenCV's and float32 arccos a polynomial
+(:func:`~sensors.polarimeter.surface.exp_into`, :func:`~sensors.polarimeter.surface.arccos_into`:
+numpy's float32 versions are ~5× and ~3× slower here). Cost is ~20–30 ns a direction for
+Rayleigh + a CIE clear sky on one core of the development VM, about 1.7× that for Berry: the
+renderer evaluates the smooth sky on a coarse grid and exactly only where it is not smooth
+(``render.Polarimeter._render_fast``).
 """
 
 from __future__ import annotations
@@ -97,6 +99,7 @@ from scipy.special import chndtr
 
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunPosition
+from sensors.polarimeter.surface import arccos_into, exp_into, is_rotation
 
 FloatArray = NDArray[np.floating]
 
@@ -389,11 +392,7 @@ def sky_radiance(
             f"dirs must be a float32/float64 array of shape (..., 3), got {p.dtype} {p.shape}"
         )
     r = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
-    if (
-        r.shape != (3, 3)
-        or not np.all(np.isfinite(r))
-        or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
-    ):
+    if r.shape != (3, 3) or not np.all(np.isfinite(r)) or not is_rotation(r):
         raise ValueError("rotation must be a finite orthonormal 3x3 matrix (C_F^n)")
     dtype = p.dtype
     batch_shape = p.shape[:-1]
@@ -526,15 +525,15 @@ def _evaluate_block(
     rad *= e_cie
     rad += 1.0 - c_cie * ctx.exp_d_half_pi
     if c_cie != 0.0:
-        np.clip(cos_g, -1.0, 1.0, out=tmp)  # rounding can put |cos γ| a hair above 1
-        np.arccos(tmp, out=tmp)
+        np.clip(cos_g, -1.0, 1.0, out=a)  # rounding can put |cos γ| a hair above 1
+        arccos_into(a, tmp, b)
         tmp *= d_cie
-        np.exp(tmp, out=tmp)
+        exp_into(tmp, tmp)
         tmp *= c_cie
         rad += tmp
     if a_cie != 0.0:  # φ(Z) = 1 + a exp(b / cos Z); b < 0, so z → 0⁺ gives exp(−∞) = 0
         np.divide(b_cie, z, out=tmp)
-        np.exp(tmp, out=tmp)
+        exp_into(tmp, tmp)
         tmp *= a_cie
         tmp += 1.0
         rad *= tmp

@@ -46,6 +46,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
+import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -492,6 +493,89 @@ def transmit_stokes(
     return TransmittedStokes(out.astype(dt, copy=False), r.directions, p_t, r.transmitted)
 
 
+# --------------------------------------------------------------------------------------------
+# Elementwise kernels for the per-frame blocks (shared with sky and water)
+# --------------------------------------------------------------------------------------------
+
+
+def exp_into(x: FloatArray, out: FloatArray) -> FloatArray:
+    """Exponential into ``out``: exp(x) for a contiguous 1-D float32/float64 block.
+
+    In place allowed. OpenCV's exp: the same accuracy as numpy's (≤ 2.1e-7 relative in
+    float32, 4.5e-16 in float64, measured over [−20, 5]), the same 0 / inf / NaN at the
+    extremes, and ~5× faster on this class of machine (numpy's float32 exp is not vectorised
+    for x86-64-v3 here).
+    """
+    if out.flags.c_contiguous and x.flags.c_contiguous and x.dtype == out.dtype:
+        r = cv2.exp(x, out)
+        if r is out or np.shares_memory(r, out):
+            return out
+        out[...] = r.reshape(out.shape)
+        return out
+    return np.exp(x, out=out)
+
+
+def neg_expm1_into(x: FloatArray, out: FloatArray, tmp: FloatArray) -> FloatArray:
+    """Into ``out``: exp(−x) − 1 = −(1 − e^{−x}) for x ≥ 0, accurate also for small x.
+
+    In place allowed. e^{−x} − 1 by :func:`exp_into` (relative error ≤ 2.1e-7/x, fine for
+    x ≥ 0.01), and below 0.01 the series −x (1 − x/2 + x²/6) (error < x³/24 relative): ~10×
+    numpy's expm1 in float32. Float64 uses numpy's expm1.
+    """
+    if x.dtype != np.float32:
+        np.negative(x, out=out)
+        return np.expm1(out, out=out)
+    np.multiply(x, 1.0 / 6.0, out=tmp)
+    tmp -= 0.5
+    tmp *= x
+    tmp += 1.0
+    tmp *= x
+    np.negative(tmp, out=tmp)  # the series
+    small = x < 0.01
+    np.negative(x, out=out)
+    exp_into(out, out)
+    out -= 1.0
+    np.copyto(out, tmp, where=small)
+    return out
+
+
+def arccos_into(x: FloatArray, out: FloatArray, tmp: FloatArray) -> FloatArray:
+    """Into ``out``: arccos(x) for x in [−1, 1]; float32: a polynomial, float64: numpy's.
+
+    Float32 uses Abramowitz & Stegun 4.4.46, arccos|x| = √(1 − |x|) Σ a_k |x|^k (|error| ≤ 2e-8
+    rad, below float32's own rounding here) with arccos(−x) = π − arccos x: ~3× numpy's float32
+    arccos. The result is in [0, π]; in place allowed.
+    """
+    if x.dtype != np.float32:
+        return np.arccos(x, out=out)
+    ax = np.abs(x, out=tmp)
+    neg = x < 0
+    # Horner in |x| into out, then × √(1 − |x|).
+    np.multiply(ax, _ACOS_POLY[0], out=out)
+    for c in _ACOS_POLY[1:-1]:
+        out += c
+        out *= ax
+    out += _ACOS_POLY[-1]
+    np.subtract(1.0, ax, out=ax)
+    np.sqrt(ax, out=ax)
+    out *= ax
+    np.subtract(np.float32(math.pi), out, out=out, where=neg)
+    return out
+
+
+#: Abramowitz & Stegun 4.4.46 coefficients a7 … a0 (Horner order).
+_ACOS_POLY = (
+    -0.0012624911,
+    0.0066700901,
+    -0.0170881256,
+    0.0308918810,
+    -0.0501743046,
+    0.0889789874,
+    -0.2145988016,
+    1.5707963050,
+)
+
+
 #: Rays per block in the per-frame kernels: temporaries of a block stay in cache (numpy is
 #: memory-bound on whole-frame float32 arrays; the same choice as :mod:`sky`).
 CHUNK = 65536
@@ -502,9 +586,22 @@ def as_rotation(rotation: ArrayLike | None) -> NDArray[np.float64] | None:
     if rotation is None:
         return None
     r = np.asarray(rotation, dtype=np.float64)
-    if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
+    if r.shape != (3, 3) or not is_rotation(r):
         raise ValueError("rotation must be an orthonormal 3x3 matrix C_F^n (frame F to ENU)")
     return r
+
+
+_ORTHO_TOL = 1e-6 + 1e-5 * np.eye(3)  # np.allclose(r rᵀ, I, atol=1e-6)'s tolerance, elementwise
+
+
+def is_rotation(r: NDArray[np.float64]) -> bool:
+    """Whether a finite 3×3 matrix is orthonormal: ``np.allclose(r @ r.T, I, atol=1e-6)``.
+
+    The same test without allclose's overhead (~10× faster; it runs several times a frame).
+    """
+    d = r @ r.T
+    d -= np.eye(3)
+    return bool(np.all(np.abs(d) <= _ORTHO_TOL))
 
 
 def flatten_directions(look_dirs: ArrayLike) -> tuple[FloatArray, tuple[int, ...]]:
@@ -660,6 +757,8 @@ class SurfaceTransmission:
         """
         r = self.rotation
         w = np.asarray(self.look_dirs)
+        if self.normals is None:
+            return self._flat_sky_directions(w)
         if r is not None:
             w = w @ r.T.astype(w.dtype)  # to ENU
         res = sky_directions_from_water(w, self.n, self.normals)
@@ -667,6 +766,45 @@ class SurfaceTransmission:
         if r is not None:
             d = d @ r.astype(d.dtype)  # back to F: C^T d
         return d.astype(self.storage.dtype, copy=False)
+
+    def _flat_sky_directions(self, w: FloatArray) -> FloatArray:
+        """Flat sea, in frame F directly, from the stored cosines (no world-frame ray array).
+
+        :func:`_flat_water_to_air` in ENU is d = α w + β ẑ with α = n, β = c_a − n w_z inside the
+        window, α = 1, β = −2 w_z for the TIR mirror (w_z > 0), α = 1, β = 0 below the horizon;
+        in F (d_F = Cᵀ d) that is α w_F + β Cᵀẑ, with w_z and c_a the stored cos_water and
+        cos_air: two per-ray scalars and three multiply-adds, over cache-sized blocks.
+        """
+        flat, shape = flatten_directions(w)
+        dt = self.storage.dtype
+        total = flat.shape[0]
+        up_f = np.array([0.0, 0.0, 1.0]) if self.rotation is None else self.rotation[2]
+        up_f = up_f.astype(dt)
+        cos_w = self.storage[3].reshape(total)
+        cos_a = self.storage[4].reshape(total)
+        out = np.empty((3, total), dtype=dt)
+        chunk = min(CHUNK, max(total, 1))
+        buf = np.empty((3, chunk), dtype=dt)
+        n = np.asarray(self.n, dtype=dt)
+        for i0 in range(0, total, chunk):
+            i1 = min(i0 + chunk, total)
+            m = i1 - i0
+            alpha, beta, tmp = (row[:m] for row in buf)
+            wz, ca = cos_w[i0:i1], cos_a[i0:i1]
+            ok = ca > 0.0
+            np.multiply(wz, -2.0, out=beta)  # TIR mirror
+            np.minimum(beta, 0.0, out=beta)  # 0 below the horizon (w_z ≤ 0)
+            np.multiply(wz, -n, out=tmp)
+            tmp += ca  # c_a − n w_z
+            np.copyto(beta, tmp, where=ok)
+            alpha.fill(1.0)
+            alpha[ok] = n
+            for k in range(3):
+                o = out[k, i0:i1]
+                np.multiply(flat[i0:i1, k], alpha, out=o)
+                np.multiply(beta, up_f[k], out=tmp)
+                o += tmp
+        return np.moveaxis(out.reshape(3, *shape), 0, -1)
 
     def apply_with_reference(self, sky_stokes: ArrayLike, sky_ref: ArrayLike) -> TransmittedStokes:
         """Transmit sky Stokes given relative to arbitrary references (general, slower path).

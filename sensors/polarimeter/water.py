@@ -133,7 +133,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
 from sensors.polarimeter.stokes import meridian_reference
-from sensors.polarimeter.surface import CHUNK, as_rotation, flatten_directions, world_components
+from sensors.polarimeter.surface import (
+    CHUNK,
+    as_rotation,
+    exp_into,
+    flatten_directions,
+    neg_expm1_into,
+    world_components,
+)
 
 FloatArray = NDArray[np.floating]
 
@@ -781,7 +788,7 @@ class WaterColumn:
         e_d0 = e_sun_h + e_sky_h
         # Direct irradiance at depth: sun beam and (uniform) sky within the window.
         mu_c = math.sqrt(1.0 - 1.0 / self.n**2)
-        x, wq = np.polynomial.legendre.leggauss(16)
+        x, wq = _GAUSS_16
         mu = 0.5 * (1 - mu_c) * x + 0.5 * (1 + mu_c)
         sky_att = float(np.sum(wq * mu * np.exp(-tau_c / mu)) / np.sum(wq * mu))
         inv_mu_sky = float(np.sum(wq) / np.sum(wq * mu))  # irradiance-weighted ⟨1/μ⟩
@@ -994,14 +1001,13 @@ def _scatter_block(
         np.divide(k.cz, t2, out=t3)  # a2
         np.minimum(t3, k.a1, out=t3)
         np.negative(t3, out=t3)
-        np.exp(t3, out=t3)  # e^{−min}
+        exp_into(t3, t3)  # e^{−min}
         np.subtract(k.mu_s, z, out=t4)
         np.abs(t4, out=t4)
         np.maximum(t4, 1e-6, out=t4)  # |μ_s − v_z|
         np.multiply(t4, k.cz / k.mu_s, out=t5)
         np.divide(t5, t2, out=t5)  # x
-        np.negative(t5, out=t5)
-        np.expm1(t5, out=t5)  # −(1 − e^{−x})
+        neg_expm1_into(t5, t5, t1)  # −(1 − e^{−x})
         t3 *= t5
         np.divide(t3, t4, out=t3)
         lss *= t3
@@ -1014,7 +1020,7 @@ def _scatter_block(
         np.subtract(k.mu_c, z, out=t1)
         t1 *= k.inv_width
         np.minimum(t1, 60.0, out=t1)
-        np.exp(t1, out=t1)
+        exp_into(t1, t1)
         t1 += 1.0
         np.reciprocal(t1, out=t1)  # window occupancy W(v), logistic
         np.multiply(t1, k.a_win - k.l_up, out=ld)
@@ -1152,10 +1158,14 @@ def _direct_block(
     tmp = buf[1, :m]
     np.maximum(z, 1e-6, out=t)
     np.divide(-k.cz, t, out=t)
-    np.exp(t, out=t)
+    exp_into(t, t)
     for i in range(3):
         np.multiply(window[:, i], t, out=tmp)
         out[i] += tmp
+
+
+#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (computed once, not per frame).
+_GAUSS_16 = np.polynomial.legendre.leggauss(16)
 
 
 def _logistic(x: FloatArray) -> FloatArray:
