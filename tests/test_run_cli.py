@@ -186,3 +186,20 @@ def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Pat
     assert 0 < m["sim_time_s"] < 1080
     ents = entities(out / "recording.rrd")  # footer written: store() reads it
     assert ents["/world/auv"] > 0
+
+
+def test_cli_render_writes_intensity_aop_and_dop_pngs(capsys, tmp_path: Path) -> None:
+    import cv2
+
+    out = tmp_path / "png"
+    assert main(["render", "default", "--at", "2", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "default at t = 2 s" in printed and "depth" in printed
+    for kind in ("intensity", "aop", "dop"):
+        img = cv2.imread(str(out / f"default_t2_{kind}.png"))
+        assert img is not None and img.shape[:2] == (256, 306)  # super-pixels of 612x512
+        assert img.max() > 50  # something was drawn
+    assert main(["render", "default", "--at", "1e6", "--out", str(out)]) == 2
+    assert "--at" in capsys.readouterr().err
+    assert main(["render", "lawnmower_10m", "--at", "0", "--preset", "nope"]) == 2
+    assert "nope" in capsys.readouterr().err
