@@ -259,3 +259,22 @@ def test_bad_optics_and_bad_offline_input_name_the_field():
         cam.render_offline(np.eye(3), 3.0, np.array([0.0, 0.0, 2.0]), np.random.default_rng(0))
     with pytest.raises(ValueError, match="c_cn"):
         cam.render_offline(2 * np.eye(3), 3.0, _sun(30, 0), np.random.default_rng(0))
+
+
+def test_a_flat_port_sees_only_the_water_within_its_own_critical_cone():
+    cam = sensors.create("polarimeter", "ideal_bin4", housing="flat")
+    assert isinstance(cam, Polarimeter)
+    cam.configure(OpticsConfig())
+    raw, truth = cam.render_offline(np.eye(3), 3.0, _sun(30, 100), np.random.default_rng(9))
+    _check_valid(raw, cam)
+    assert np.all(np.isfinite(truth.stokes))
+    # Lens rays at or beyond 90° never leave the housing: dark there (only the black level).
+    lens_theta = np.degrees(cam.camera.theta.astype(np.float64))
+    assert float(truth.stokes[..., 0][lens_theta > 90.5].max()) == 0.0
+    # Through a flat port the in-water field is the cone asin(1/n) ≈ 48° about the axis, so
+    # Snell's window (also 48°) fills what the lens can see: the window covers most lit pixels.
+    lit = truth.stokes[..., 0] > 0
+    assert truth.snell_window[lit].mean() > 0.9
+    dome = _camera()
+    _, t_dome = dome.render_offline(np.eye(3), 3.0, _sun(30, 100), np.random.default_rng(9))
+    assert truth.snell_window.sum() > 1.5 * t_dome.snell_window.sum()  # the window is magnified
