@@ -244,8 +244,8 @@ def _navigators(
         eskf=eskf,
     )
     tr = plant.truth()
-    c_true = quat_to_dcm(tr.quat_wxyz)
-    pos, vel, lat, lon = tr.position_n, tr.velocity_n, tr.latitude_rad, tr.longitude_rad
+    c_init = quat_to_dcm(tr.quat_wxyz)  # C_b^n, perturbed below
+    vel, lat, lon = tr.velocity_n, tr.latitude_rad, tr.longitude_rad
     h = -tr.depth_m
     if nav.initial_error:
         rng = np.random.default_rng(seed)
@@ -258,9 +258,8 @@ def _navigators(
         lon = lon + d_en_u[0] / (r_n * math.cos(lat))
         h = h + d_en_u[2]
         # The filter's convention: C_est = exp(−[φ×]) C_true (twin.onboard.eskf).
-        c_true = rotvec_to_dcm(*(-phi)) @ c_true
-    del pos
-    init = InsNavState(0.0, lat, lon, h, np.asarray(vel, float), c_true)
+        c_init = rotvec_to_dcm(*(-phi)) @ c_init
+    init = InsNavState(0.0, lat, lon, h, np.asarray(vel, float), c_init)
     cam = next((x for x in suite.sensors if x.kind == "polarimeter"), None)
     knowledge = VehicleKnowledge(
         start_utc=scenario.start_utc,
