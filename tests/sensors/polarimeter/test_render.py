@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
 import math
 
-import mujoco
 import numpy as np
 import pytest
+from scene_world import WIDE_PIER, SceneWorld
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter, PolarimeterSpec
@@ -143,50 +142,10 @@ def test_a_30_degree_tilted_frame_in_air_and_in_water_is_valid():
 
 
 # --- occlusion in a real MuJoCo scene ------------------------------------------------------------
-_PIER_XML = """
-<mujoco>
-  <worldbody>
-    <geom name="sea_surface" type="plane" size="0 0 0.05" pos="0 0 0" group="0"/>
-    {pier}
-    <body name="auv" pos="0 0 -3">
-      <freejoint/>
-      <geom type="ellipsoid" size="0.095 0.8 0.095" mass="30"/>
-      <site name="polarimeter" pos="0 0.35 0.1"/>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-
-class _SceneWorld:
-    """A WorldView over a real MuJoCo scene (the plant's protocol, without the vehicle dynamics)."""
-
-    def __init__(self, pier: bool):
-        pier_xml = '<geom name="pier" type="box" size="20 20 0.3" pos="0 0 -1" group="0"/>'
-        self.model = mujoco.MjModel.from_xml_string(_PIER_XML.format(pier=pier_xml if pier else ""))
-        self.data = mujoco.MjData(self.model)
-        mujoco.mj_forward(self.model, self.data)
-        self.t = 0.0
-        self.utc = dt.datetime(2021, 9, 3, 3, 0, tzinfo=dt.UTC)
-        self.latitude_rad = math.radians(37.54)
-        self.longitude_rad = math.radians(122.06)
-        self.gravity_mps2 = 9.8
-        self.water_density_kg_m3 = 1025.0
-        self.atmospheric_pressure_pa = 101325.0
-        self.surface_z_m = 0.0
-
-    def mj_sensor(self, name: str) -> np.ndarray:
-        return self.data.sensor(name).data
-
-    def site_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        s = self.data.site(name)
-        return s.xpos.copy(), s.xmat.reshape(3, 3).copy()
-
-
 def test_a_pier_above_the_camera_blocks_the_sky_but_not_the_scattered_light():
     frames = {}
     for pier in (False, True):
-        world = _SceneWorld(pier)
+        world = SceneWorld(WIDE_PIER if pier else "")
         cam = _camera("ideal_bin4", jerlov_type="IB")
         rng = np.random.default_rng(7)
         cam.reset(world, rng)
@@ -204,7 +163,7 @@ def test_a_pier_above_the_camera_blocks_the_sky_but_not_the_scattered_light():
 
 
 def test_the_vehicle_hull_does_not_occlude_the_sky_above_the_camera():
-    world = _SceneWorld(False)
+    world = SceneWorld()
     cam = _camera("ideal_bin4")
     rng = np.random.default_rng(8)
     cam.reset(world, rng)

@@ -8,49 +8,16 @@ identical. The full-resolution frame (a finer grid in angle) does 2–4× better
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
 import math
 
-import mujoco
 import numpy as np
 import pytest
+from scene_world import NARROW_PIER, SceneWorld
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
 from sensors.polarimeter.sky import SkySpec
 from twin.frames import euler_to_dcm
-
-_PIER_XML = """
-<mujoco>
-  <worldbody>
-    <geom name="sea_surface" type="plane" size="0 0 0.05" pos="0 0 0" group="0"/>
-    <geom name="pier" type="box" size="0.6 20 0.3" pos="0.5 0 -1" group="0"/>
-    <body name="auv" pos="0 0 -3">
-      <freejoint/>
-      <geom type="ellipsoid" size="0.095 0.8 0.095" mass="30"/>
-      <site name="polarimeter" pos="0 0.35 0.1"/>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-
-class _SceneWorld:
-    """A WorldView over a MuJoCo scene with a narrow pier half across the window (test_render's)."""
-
-    def __init__(self) -> None:
-        self.model = mujoco.MjModel.from_xml_string(_PIER_XML)
-        self.data = mujoco.MjData(self.model)
-        mujoco.mj_forward(self.model, self.data)
-        self.t = 0.0
-        self.utc = dt.datetime(2021, 9, 3, 3, 0, tzinfo=dt.UTC)
-        self.latitude_rad = math.radians(37.54)
-        self.longitude_rad = math.radians(122.06)
-        self.surface_z_m = 0.0
-
-    def site_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        s = self.data.site(name)
-        return s.xpos.copy(), s.xmat.reshape(3, 3).copy()
 
 
 def _sun(zenith_deg: float, azimuth_deg: float) -> np.ndarray:
@@ -154,7 +121,7 @@ def test_occluded_pixels_keep_only_the_scattered_light_on_the_fast_path_too():
     """A pier over part of the window: fast and exact frames agree, blocked or not."""
     frames = {}
     for fast in (True, False):
-        world = _SceneWorld()
+        world = SceneWorld(NARROW_PIER)
         cam = sensors.create("polarimeter", "ideal_bin4", fast=fast)
         assert isinstance(cam, Polarimeter)
         cam.configure(OpticsConfig(jerlov_type="IB"))
