@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -67,7 +68,9 @@ class CompassContext:
             ("water_index", self.water_index, 1.0, 2.0),
         )
         for name, v, lo, hi in checks:
-            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+            # numbers.Real admits numpy scalars (np.float32 is not a float subclass).
+            ok = isinstance(v, numbers.Real) and not isinstance(v, bool)
+            if not (ok and math.isfinite(float(v)) and lo <= float(v) <= hi):
                 raise ValueError(
                     f"CompassContext.{name}: {v!r} is out of range; allowed [{lo:g}, {hi:g}]"
                 )
