@@ -293,11 +293,8 @@ def _loop(world: World, rec: Recorder, cam: ChaseCamera | None, stats: _Stats, b
                 rec.log_text(t, "mission complete")
         plant.step(cmd)
         readings = suite.poll(plant)
-        for name, nav in navigators.items():
-            for reading in readings:
-                event = nav.on_reading(reading)
-                if event is not None:
-                    _log_compass_event(rec, name, event)
+        for name, event in world.deliver(readings):
+            _log_compass_event(rec, name, event)
         for reading in readings:
             rec.log_reading(reading)
             readings_count[reading.sensor] = readings_count.get(reading.sensor, 0) + 1

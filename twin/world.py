@@ -27,7 +27,7 @@ from twin.navsources import EstimateNav, NavSource, TruthNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
-from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
+from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
 from twin.plant import Plant, PlantConfig
 
 # Order of the root seed's children. Append new consumers at the end: existing streams then stay
@@ -49,11 +49,18 @@ class World:
     nav: NavSource
     navigators: dict[str, Navigator] = field(default_factory=dict)
 
-    def deliver(self, readings: list[Reading]) -> None:
-        """Hand sensor readings (in delivery order) to every onboard filter variant."""
-        for nav in self.navigators.values():
+    def deliver(self, readings: list[Reading]) -> list[tuple[str, CompassEvent]]:
+        """Hand sensor readings (in delivery order) to every onboard filter variant.
+
+        Returns the frames the variants' compass methods processed, as (variant, event).
+        """
+        events = []
+        for name, nav in self.navigators.items():
             for r in readings:
-                nav.on_reading(r)
+                event = nav.on_reading(r)
+                if event is not None:
+                    events.append((name, event))
+        return events
 
     @property
     def physics_dt(self) -> float:

@@ -27,8 +27,9 @@ def calibration_from_spec(
 
     Args:
         spec: The world camera.
-        sensor: Optional sensor spec for the super-pixel layout and the saturation level
-            (default: the calibration's IMX250MZR layout and 12-bit saturation).
+        sensor: Optional sensor spec for the super-pixel layout, the saturation level and the
+            black level (default: the calibration's IMX250MZR layout, 12-bit saturation, no
+            black level).
 
     Raises:
         ValueError: For a ``"scaramuzza"`` projection or a non-identity affine stretch, which the
@@ -48,7 +49,11 @@ def calibration_from_spec(
     shift = (b - 1) / 2.0
     extra: dict[str, object] = {}
     if sensor is not None:
-        extra = {"layout_deg": sensor.layout_deg, "saturation_dn": int(sensor.saturation_dn)}
+        extra = {
+            "layout_deg": sensor.layout_deg,
+            "saturation_dn": int(sensor.saturation_dn),
+            "black_level_dn": float(sensor.black_level_dn),
+        }
     return CameraCalibration(
         width_px=spec.image_width,
         height_px=spec.image_height,

@@ -56,9 +56,11 @@ from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
+from sensors.polarimeter.calibration import calibration_from_spec
 from sensors.polarimeter.sky import SkySpec, sky_radiance
-from sensors.polarimeter.sun import SunTracker
+from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunTracker
 from sensors.registry import register
+from twin.onboard.calibration import CameraCalibration
 
 FloatArray = NDArray[np.floating]
 
@@ -465,6 +467,7 @@ class Polarimeter(Sensor):
         self._waves: surface_mod.WaveSurface | None = None
         self._last_t: float | None = None
         self.truth: PolarimeterTruth | None = None
+        self._calibration: CameraCalibration | None = None
         self._plans: dict[tuple[float, int], _FastPlan] = {}
         self._configure_derived()
 
@@ -500,18 +503,11 @@ class Polarimeter(Sensor):
         self._psf_sigma = (0.6 * np.sqrt(np.maximum(sa, 0.0)) * self.n_water).astype(np.float32)
         self._psf_sigma_air = (0.6 * np.sqrt(np.maximum(sa, 0.0))).astype(np.float32)
 
-    def calibration(self):
-        """The onboard camera calibration (what the vehicle knows of this camera)."""
-        from sensors.polarimeter.calibration import calibration_from_spec
-
-        cal = calibration_from_spec(self.camera.spec)
-        ss = self.pspec.sensor_spec()
-        return dataclasses.replace(
-            cal,
-            saturation_dn=ss.saturation_dn,
-            black_level_dn=ss.black_level_dn,
-            layout_deg=ss.layout_deg,
-        )
+    def calibration(self) -> CameraCalibration:
+        """The onboard camera calibration (what the vehicle knows of this camera), built once."""
+        if self._calibration is None:
+            self._calibration = calibration_from_spec(self.camera.spec, self.pspec.sensor_spec())
+        return self._calibration
 
     # ---- Sensor API ----------------------------------------------------------------------------
     def channel_specs(self) -> dict[str, dm_env.specs.Array]:
@@ -554,29 +550,8 @@ class Polarimeter(Sensor):
         if self._waves is not None and self._last_t is not None:
             self._waves.step(max(world.t - self._last_t, 0.0))
         self._last_t = world.t
-        stokes, window, occluded, sun_look = self.render_stokes(world, pos, c_cn, depth, sun)
-        dofp = self._dofp
-        exposure = dofp.exposure_for(stokes)
-        raw = dofp.render_mosaic(stokes, exposure, rng)
-        sun_px = None
-        if sun_look is not None:
-            # In the lens's own space: through a flat port the in-water direction bends.
-            look_c = c_cn.T @ sun_look
-            u, v, ok = self.camera.project_outside(look_c, self.n_water if depth > 0 else 1.0)
-            if bool(ok):
-                sun_px = (float(u), float(v))
-        self.truth = PolarimeterTruth(
-            t=world.t,
-            stokes=stokes,
-            snell_window=window,
-            occluded=occluded,
-            sun_pixel=sun_px,
-            sun_enu=np.asarray(sun.direction_enu, dtype=np.float64),
-            depth_m=depth,
-            night=bool(sun.is_night),
-            exposure_us=float(exposure),
-        )
-        return {"raw": raw, "exposure_us": np.asarray(float(exposure))}
+        raw, self.truth = self._expose(world, pos, c_cn, depth, sun, rng, world.t)
+        return {"raw": raw, "exposure_us": np.asarray(self.truth.exposure_us)}
 
     def render_offline(
         self,
@@ -613,20 +588,33 @@ class Polarimeter(Sensor):
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):
             raise ValueError("sun: must be a SunPosition or a unit ENU vector")
-        stokes, window, occluded, sun_look = self.render_stokes(
-            None, np.zeros(3), c, float(depth_m), sun
-        )
+        return self._expose(None, np.zeros(3), c, float(depth_m), sun, rng, t)
+
+    def _expose(
+        self,
+        world: WorldView | None,
+        pos: NDArray[np.float64],
+        c_cn: NDArray[np.float64],
+        depth_m: float,
+        sun: Any,
+        rng: np.random.Generator,
+        t: float,
+    ) -> tuple[NDArray[np.uint16], PolarimeterTruth]:
+        """Render, expose and read out one frame; its truth layers."""
+        assert self._dofp is not None
+        stokes, window, occluded, sun_look = self.render_stokes(world, pos, c_cn, depth_m, sun)
         exposure = self._dofp.exposure_for(stokes)
         raw = self._dofp.render_mosaic(stokes, exposure, rng)
         sun_px = None
         if sun_look is not None:
-            u, v, ok = self.camera.project_outside(
-                c.T @ sun_look, self.n_water if depth_m > 0 else 1
-            )
+            # In the lens's own space: through a flat port the in-water direction bends.
+            n_out = self.n_water if depth_m > 0 else 1.0
+            u, v, ok = self.camera.project_outside(c_cn.T @ sun_look, n_out)
             sun_px = (float(u), float(v)) if bool(ok) else None
-        night = bool(getattr(sun, "is_night", sun_enu[2] < math.sin(math.radians(-0.833))))
+        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
+        night = bool(getattr(sun, "is_night", sun_enu[2] < math.sin(NIGHT_ELEVATION_RAD)))
         truth = PolarimeterTruth(
-            t, stokes, window, occluded, sun_px, sun_enu, float(depth_m), night, float(exposure)
+            t, stokes, window, occluded, sun_px, sun_enu, depth_m, night, float(exposure)
         )
         return raw, truth
 

@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twin import earth
-from twin.frames import FloatArray
 from twin.messages import Reading
 from twin.onboard.calibration import CameraCalibration
 from twin.onboard.compass import CompassContext, CompassFix, create
@@ -97,11 +96,6 @@ class CompassEvent:
     update: UpdateResult | None
 
 
-def sun_enu_at(utc: dt.datetime, latitude_deg: float, longitude_deg: float) -> FloatArray:
-    """Ephemeris solar vector (ENU) for a frame (``twin.onboard.ephemeris``, knot-cached)."""
-    return sun_direction_enu(utc, latitude_deg, longitude_deg)
-
-
 class Navigator:
     """One filter variant: ``"ins"`` or a compass method name (``"lig"``, ``"pol"``, ...).
 
@@ -173,7 +167,7 @@ class Navigator:
             pitch_rad=max(min(est.pitch, math.pi / 2), -math.pi / 2),
             depth_m=max(est.depth_m, 0.0),
             water_index=k.water_index,
-            sun_enu=sun_enu_at(utc, lat, lon),
+            sun_enu=sun_direction_enu(utc, lat, lon),
         )
         fix = self.method.solve(reading["raw"], k.calibration, ctx)
         self.updates["frames"] += 1
