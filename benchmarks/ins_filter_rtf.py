@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from twin import earth
-from twin.frames import euler_to_dcm
+from twin.core import earth
+from twin.core.frames import euler_to_dcm
 from twin.onboard.eskf import Eskf, EskfConfig
 from twin.onboard.ins import NavState, StrapdownIns
 

@@ -19,9 +19,9 @@ import time
 from pathlib import Path
 
 import scenarios
-from twin.actuators import ActuatorCommand
-from twin.run import run_scenario
-from twin.world import build_world
+from twin.app.run import run_scenario
+from twin.app.simulation import build_simulation
+from twin.core.messages import ActuatorCommand
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MISSION_S = 600.0
@@ -31,7 +31,7 @@ def plant_only(repeats: int = 3) -> dict[str, float]:
     sc = dataclasses.replace(scenarios.load("lawnmower_10m"), duration_s=MISSION_S)
     best = float("inf")
     for _ in range(repeats):
-        w = build_world(sc)
+        w = build_simulation(sc)
         dt = w.physics_dt
         every = round(1.0 / (sc.autopilot.rate_hz * dt))
         cmd = ActuatorCommand()

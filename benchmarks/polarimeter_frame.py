@@ -28,7 +28,7 @@ import numpy as np
 import scenarios
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
-from twin.world import build_world
+from twin.app.simulation import build_simulation
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SUN = np.array(
@@ -81,7 +81,7 @@ def time_preset(preset: str, repeats: int) -> dict[str, float | str | int]:
     sensor = _best(lambda: cam._dofp.render_mosaic(stokes, 700.0, rng), repeats)
     total = _best(lambda: cam.render_offline(np.eye(3), 10.0, SUN, rng), repeats)
     # Occlusion against the real scene, from the vehicle's site.
-    world = build_world(scenarios.load("default"))
+    world = build_simulation(scenarios.load("default"))
     pos, c = world.plant.site_pose("polarimeter")
     rays = cam.camera.outside(cam.n_water).directions
     occl = _best(lambda: cam._occlusion(world.plant, pos, c, rays, 10.0), repeats)

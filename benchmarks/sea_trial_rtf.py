@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import scenarios
-from twin.run import run_scenario
+from twin.app.run import run_scenario
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MISSION_S = 600.0

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import scenarios
-from twin.run import run_scenario
+from twin.app.run import run_scenario
 
 RESULTS = Path(__file__).resolve().parent / "results"
 PAPER = {10: {"pol": 3.6, "lig": 1.6}, 15: {"pol": 16.1, "lig": 2.2}}

@@ -25,7 +25,7 @@ import numpy as np
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.roia import RoiaMethod
 from twin.onboard.compass.snell import SnellWindowMethod

@@ -19,7 +19,7 @@ import re
 import tomllib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from datetime import UTC, date, datetime, time
+from datetime import UTC, date, datetime, time, timedelta
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -160,7 +160,17 @@ class Range:
 
 NON_NEGATIVE = Range(0.0)
 POSITIVE = Range(0.0, lo_open=True)
-LATITUDE_DEG = Range(-90.0, 90.0)
+# The poles are excluded: the INS mechanises in local-level ENU, whose East axis and longitude rate
+# (v_E / (R cos φ)) are undefined at ±90° (twin/onboard/ins.py); a grid-frame INS would be needed.
+LATITUDE_DEG = Range(-90.0, 90.0, lo_open=True, hi_open=True)
+# The sun model (pvlib's SPA) and the recorder's timeline take nanosecond timestamps (numpy/pandas
+# datetime64[ns]): 1677-09-21 to 2262-04-11. A run must start and end inside whole years of that.
+START_UTC_MIN = datetime(1678, 1, 1, tzinfo=UTC)
+START_UTC_END = datetime(2262, 1, 1, tzinfo=UTC)
+MSG_START_RANGE = (
+    "{value} is out of range; allowed 1678-01-01 to 2261-12-31 UTC (the sun model's "
+    "nanosecond timestamps); the whole run must fit"
+)
 LONGITUDE_DEG = Range(-180.0, 180.0)
 COMPASS_DEG = Range(0.0, 360.0, hi_open=True)
 ROLL_DEG = Range(-180.0, 180.0)
@@ -539,7 +549,14 @@ def _start_utc(top: _Table) -> datetime | None:
     if value.tzinfo is None or value.utcoffset() is None:
         errs.add(path, MSG_NAIVE_TIME.format(value=_show(raw)))
         return None
-    return value.astimezone(UTC)
+    try:
+        utc = value.astimezone(UTC)
+    except OverflowError:  # an offset that moves year 1 or 9999 out of datetime's range
+        utc = None
+    if utc is None or not (START_UTC_MIN <= utc < START_UTC_END):
+        errs.add(path, MSG_START_RANGE.format(value=_show(raw)))
+        return None
+    return utc
 
 
 def _place(t: _Table | None) -> Place | None:
@@ -1043,6 +1060,33 @@ def _navigation_checks(
 # ---- entry points ------------------------------------------------------------------------------
 
 
+def _time_span_checks(report: _Report, start: datetime | None, duration: float | None) -> None:
+    """The run must end inside the sun model's time range, not only start in it."""
+    if start is None or duration is None:
+        return
+    if start + timedelta(seconds=duration) >= START_UTC_END:
+        report.add(
+            "duration_s",
+            f"{_show(duration)} makes the run end after 2261-12-31 UTC (start_utc "
+            f"{start.isoformat()}); allowed: a run that ends by then (the sun model's "
+            "nanosecond timestamps)",
+        )
+
+
+def _buildable_checks(scenario: Scenario, source: str) -> None:
+    """Build every sensor exactly as a run does; report what that would raise.
+
+    Runs after the table checks (it needs a complete scenario), so ``validate`` rejects whatever
+    ``run`` would reject deep inside (unknown presets, bad ``*_overrides`` fields, a binning that
+    leaves no image, a compass rate above the camera's frame rate).
+    """
+    from twin.world.assembly import check_sensors  # heavy (mujoco, the optics): only when needed
+
+    problems = check_sensors(scenario)
+    if problems:
+        raise ScenarioError(problems, source)
+
+
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scenario:
     """Validate a mapping (a parsed TOML document, or :meth:`Scenario.to_dict` output).
 
@@ -1092,6 +1136,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     top.finish()
     _cross_checks(report, scene)
     _navigation_checks(report, navigation, sensors, autopilot)
+    _time_span_checks(report, start, duration)
     if report.lines:
         raise ScenarioError(report.lines, source)
     scenario = _build(
@@ -1115,6 +1160,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     )
     # Every None above was reported; reaching here without a scenario is a bug in this module.
     assert scenario is not None, "unreported validation failure"
+    _buildable_checks(scenario, source)
     return scenario
 
 

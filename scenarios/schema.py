@@ -18,7 +18,33 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
-from typing import Any, ClassVar, Literal, TypeAlias
+from typing import Any, Literal, TypeAlias
+
+# The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
+# defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
+from twin.core.mission import (
+    MISSION_KINDS,
+    HeadingLeg,
+    LawnmowerMission,
+    Leg,
+    LegsMission,
+    Mission,
+    MissionKind,
+    StationKeepingMission,
+    Vec2,
+    WaypointLeg,
+)
+
+__mission_exports__ = (
+    MISSION_KINDS,
+    HeadingLeg,
+    LawnmowerMission,
+    Leg,
+    LegsMission,
+    MissionKind,
+    StationKeepingMission,
+    WaypointLeg,
+)
 
 # ---- allowed values (the loader validates against these; consumers may use them too) ----------
 
@@ -32,8 +58,6 @@ JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C",
 CurrentKind: TypeAlias = Literal["none", "constant", "profile", "gauss_markov"]
 CURRENT_KINDS: tuple[str, ...] = ("none", "constant", "profile", "gauss_markov")
 
-MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping"]
-MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping")
 
 AttitudeSource: TypeAlias = Literal["truth", "estimate"]
 ATTITUDE_SOURCES: tuple[str, ...] = ("truth", "estimate")
@@ -47,7 +71,6 @@ TANK_FLOOR_DEPTH_M = 4.0
 # in diameter) pitches while it holds depth, so keep half a metre of water under the keel.
 TANK_MAX_DEPTH_M = 3.5
 
-Vec2: TypeAlias = tuple[float, float]
 OverrideValue: TypeAlias = int | float | tuple[int | float, ...]
 
 
@@ -155,124 +178,7 @@ class Initial:
     speed_mps: float = 0.0
 
 
-# ---- missions ----------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class WaypointLeg:
-    """Go to ``to_m`` = (East, North) at ``depth_m`` and ``speed_mps``.
-
-    The leg ends when the vehicle is horizontally within the mission's ``acceptance_radius_m`` of
-    the point.
-    """
-
-    to_m: Vec2
-    depth_m: float
-    speed_mps: float
-
-
-@dataclass(frozen=True, slots=True)
-class HeadingLeg:
-    """Hold compass ``heading_deg`` at ``depth_m`` and ``speed_mps`` for ``duration_s``."""
-
-    heading_deg: float
-    duration_s: float
-    depth_m: float
-    speed_mps: float
-
-
-Leg: TypeAlias = WaypointLeg | HeadingLeg
-
-
-@dataclass(frozen=True, slots=True)
-class LegsMission:
-    """A sequence of waypoint and heading legs, flown in order."""
-
-    kind: ClassVar[Literal["legs"]] = "legs"
-    legs: tuple[Leg, ...]
-    acceptance_radius_m: float = 5.0
-
-    def expand(self) -> tuple[Leg, ...]:
-        """The legs to fly (already explicit for this kind)."""
-        return self.legs
-
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return tuple(leg.depth_m for leg in self.legs)
-
-
-@dataclass(frozen=True, slots=True)
-class LawnmowerMission:
-    """A boustrophedon survey of ``lanes`` parallel lanes.
-
-    Geometry: the first lane starts at ``origin_m`` and runs ``lane_length_m`` along compass
-    ``heading_deg``. Each next lane lies ``lane_spacing_m`` to the *right* of the previous one (as
-    seen looking along the first lane's direction, i.e. toward ``heading_deg + 90``) and runs the
-    opposite way, so the vehicle turns right, then left, then right... and the pattern covers the
-    rectangle to the right of the first lane.
-    """
-
-    kind: ClassVar[Literal["lawnmower"]] = "lawnmower"
-    origin_m: Vec2
-    heading_deg: float
-    lane_length_m: float
-    lane_spacing_m: float
-    lanes: int
-    depth_m: float
-    speed_mps: float
-    acceptance_radius_m: float = 5.0
-
-    def waypoints_m(self) -> tuple[Vec2, ...]:
-        """Lane endpoints in flying order: start and end of lane 0, of lane 1, ... (2 per lane)."""
-        h = math.radians(self.heading_deg)
-        along = (math.sin(h), math.cos(h))  # (E, N) unit vector of the first lane
-        right = (math.cos(h), -math.sin(h))  # its right-hand normal: heading + 90 deg
-        e0, n0 = self.origin_m
-        out: list[Vec2] = []
-        for i in range(self.lanes):
-            off = i * self.lane_spacing_m
-            a = (e0 + off * right[0], n0 + off * right[1])
-            b = (a[0] + self.lane_length_m * along[0], a[1] + self.lane_length_m * along[1])
-            out.extend([a, b] if i % 2 == 0 else [b, a])
-        return tuple(out)
-
-    def expand(self) -> tuple[WaypointLeg, ...]:
-        """The survey as waypoint legs: 2 per lane (to the lane's start, then to its end).
-
-        The first leg goes to ``origin_m`` from wherever the vehicle starts; between lanes the leg
-        to the next lane's start is the ``lane_spacing_m`` crossover.
-        """
-        return tuple(
-            WaypointLeg(to_m=p, depth_m=self.depth_m, speed_mps=self.speed_mps)
-            for p in self.waypoints_m()
-        )
-
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return (self.depth_m,)
-
-
-@dataclass(frozen=True, slots=True)
-class StationKeepingMission:
-    """Loiter on a circle of ``radius_m`` around ``center_m`` at ``depth_m`` and ``speed_mps``.
-
-    A torpedo AUV needs way on to steer, so it cannot hover; it circles instead. The direction of
-    the circle is the autopilot's choice.
-    """
-
-    kind: ClassVar[Literal["station_keeping"]] = "station_keeping"
-    center_m: Vec2
-    depth_m: float
-    radius_m: float
-    speed_mps: float
-    acceptance_radius_m: float = 5.0
-
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return (self.depth_m,)
-
-
-Mission: TypeAlias = LegsMission | LawnmowerMission | StationKeepingMission
+# ---- missions: the shared contract, twin/core/mission.py ---------------------------------
 
 
 # ---- vehicle computer and recording -----------------------------------------------------------

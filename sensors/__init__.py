@@ -2,7 +2,7 @@
 
 A sensor is one module that subclasses :class:`sensors.base.Sensor` and registers itself with
 :func:`sensors.registry.register`. Sensors see truth (the :class:`sensors.base.WorldView`) and
-produce :class:`twin.messages.Reading` objects; they never see estimates.
+produce :class:`twin.core.messages.Reading` objects; they never see estimates.
 """
 
 from __future__ import annotations

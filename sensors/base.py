@@ -16,7 +16,7 @@ import numpy as np
 class WorldView(Protocol):
     """What a sensor may look at: the true state of the world at the current instant.
 
-    Implemented by :class:`twin.plant.Plant`. Everything here is truth; sensors turn it into
+    Implemented by :class:`twin.world.plant.Plant`. Everything here is truth; sensors turn it into
     readings.
     """
 

@@ -29,7 +29,7 @@ to reproduce MuJoCo's Ċ = C [ω_mj ×] and v̇ = C f_mj + g, the sensor must re
     ω^b = ω_mj + C_n^b (ω_ie^n + ω_en^n),
     f^b = f_mj + C_n^b ((2 ω_ie^n + ω_en^n) × v^n),
 
-with ω_ie^n = [0, Ω cos L, Ω sin L], ω_en^n the transport rate (:mod:`twin.earth`), v^n the
+with ω_ie^n = [0, Ω cos L, Ω sin L], ω_en^n the transport rate (:mod:`twin.core.earth`), v^n the
 site's world velocity (MJCF ``framelinvel``) and C_n^b the transpose of the site's rotation. These
 terms are added when ``ImuSpec.earth_kinematics`` is true (the default). Gravity needs no term: the
 world's gravity is normal gravity, which already contains the centrifugal part of the Earth's
@@ -66,8 +66,8 @@ from sensors.noise import (
     gauss_markov_sigma_for_bias_instability,
 )
 from sensors.registry import register
-from twin import earth
-from twin.frames import FloatArray
+from twin.core import earth
+from twin.core.frames import FloatArray
 
 # --- datasheet units to SI (navigation.md §1.1: pyins DH_TO_RS, DRH_TO_RRS) -------------------
 DEG = math.pi / 180.0

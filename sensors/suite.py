@@ -10,7 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sensors.base import Sensor, WorldView
-from twin.messages import Reading
+from twin.core.messages import Reading
 
 # Tolerance when comparing a sample instant with the physics clock: sample times are k / rate and
 # the physics clock is n * dt; both carry float round-off.
@@ -40,7 +40,7 @@ class SensorSuite:
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._rngs = [np.random.default_rng(s) for s in ss.spawn(len(self.sensors))]
         self._next_t = [0.0] * len(self.sensors)
-        self._pending: list[tuple[float, int, Reading]] = []
+        self._pending: list[tuple[float, int, Reading, object]] = []
         self._counter = itertools.count()
 
     def __getitem__(self, name: str) -> Sensor:
@@ -58,13 +58,26 @@ class SensorSuite:
 
     def poll(self, world: WorldView) -> list[Reading]:
         """Sample the sensors that are due now; return readings delivered by now, oldest first."""
+        return [r for r, _ in self.poll_with_truth(world)]
+
+    def poll_with_truth(self, world: WorldView) -> list[tuple[Reading, object]]:
+        """Like :meth:`poll`, each reading paired with the truth its sensor recorded for it.
+
+        A sensor that keeps truth of its own (the polarimeter's truth layers: true Stokes, the
+        sun's pixel, masks) exposes it as ``truth`` after ``sample``; it is taken at the sampling
+        instant and travels with the reading through the delay, so the scorer and the recorder
+        never look it up afterwards. None for sensors without.
+        """
         t = world.t
         next_t = self._next_t
         for i, sensor in enumerate(self.sensors):
             if next_t[i] <= t + _EPS_S:
                 values = sensor.sample(world, self._rngs[i])
                 reading = Reading(sensor.name, t, t + sensor.delay_s, values)
-                heapq.heappush(self._pending, (reading.t_delivered, next(self._counter), reading))
+                truth = getattr(sensor, "truth", None)
+                heapq.heappush(
+                    self._pending, (reading.t_delivered, next(self._counter), reading, truth)
+                )
                 # Next instant k / rate after now (skipping any the physics clock jumped over),
                 # computed from k rather than accumulated, so it does not drift.
                 rate = sensor.rate_hz
@@ -72,7 +85,8 @@ class SensorSuite:
         pending = self._pending
         if not pending or pending[0][0] > t + _EPS_S:
             return []
-        out: list[Reading] = []
+        out: list[tuple[Reading, object]] = []
         while pending and pending[0][0] <= t + _EPS_S:
-            out.append(heapq.heappop(pending)[2])
+            _, _, reading, truth = heapq.heappop(pending)
+            out.append((reading, truth))
         return out

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from scenarios.schema import LegsMission, StationKeepingMission, WaypointLeg
-from twin.actuators import ActuatorCommand
-from twin.autopilot import Autopilot, NavState, Setpoint
-from twin.guidance import Guidance
-from twin.navsources import TruthNav
-from twin.plant import Plant, PlantConfig
+from twin.app.navsources import TruthNav
+from twin.core.messages import ActuatorCommand
+from twin.onboard.control.autopilot import Autopilot, NavState, Setpoint
+from twin.onboard.control.guidance import Guidance
+from twin.world.plant import Plant, PlantConfig
 
 
 def _fly(plant: Plant, setpoint_fn, seconds: float, rate_hz: float = 10.0):

@@ -1,13 +1,23 @@
-"""The world/onboard boundary, as the import graph shows it."""
+"""The world/onboard boundary, as the import graph shows it.
+
+The folders are the rooms of the house (docs/architecture.md):
+
+* ``twin/core``: the contract both sides may import (frames, earth, messages, calibration, the
+  sun ephemeris, the mission plan). It imports nothing else from the project.
+* ``twin/onboard``: the vehicle computer. It imports only ``twin.onboard`` and ``twin.core``.
+* ``twin/world`` and ``sensors``: the world (truth). They never import the vehicle computer, the
+  scorer, the recorder or the app.
+* ``twin/scoring``, ``twin/record``, ``twin/app``: see both sides.
+"""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
-# What onboard code may import from this project: itself and the shared, truth-free modules.
-ALLOWED_PROJECT_MODULES = ("twin.onboard", "twin.messages", "twin.frames", "twin.earth")
 PROJECT_PACKAGES = ("twin", "sensors", "scenarios", "models")
 
 
@@ -25,22 +35,49 @@ def _imports(path: Path) -> list[str]:
     return out
 
 
-def test_onboard_imports_nothing_from_the_world_side() -> None:
+def _violations(folder: Path, allowed: tuple[str, ...]) -> list[str]:
     bad = []
-    for path in sorted((ROOT / "twin" / "onboard").rglob("*.py")):
+    for path in sorted(folder.rglob("*.py")):
         for name in _imports(path):
             if name.startswith("."):
-                continue  # relative imports stay inside twin.onboard
-            if name.split(".")[0] in PROJECT_PACKAGES and not name.startswith(
-                ALLOWED_PROJECT_MODULES
+                bad.append(f"{path.relative_to(ROOT)}: relative import {name}")
+            elif name.split(".")[0] in PROJECT_PACKAGES and not any(
+                name == a or name.startswith(a + ".") for a in allowed
             ):
                 bad.append(f"{path.relative_to(ROOT)} imports {name}")
-    assert bad == []
+    return bad
 
 
-def test_shared_modules_are_truth_free() -> None:
-    for mod in ("messages", "frames", "earth"):
-        for name in _imports(ROOT / "twin" / f"{mod}.py"):
-            assert name.split(".")[0] not in PROJECT_PACKAGES or name.startswith(
-                ALLOWED_PROJECT_MODULES
-            ), f"twin/{mod}.py imports {name}"
+@pytest.mark.parametrize(
+    ("room", "allowed"),
+    [
+        ("twin/onboard", ("twin.onboard", "twin.core")),
+        ("twin/core", ("twin.core",)),
+        ("twin/world", ("twin.world", "twin.core", "models", "sensors", "scenarios.schema")),
+        ("sensors", ("sensors", "twin.core")),
+    ],
+)
+def test_each_room_imports_only_what_it_may(room: str, allowed: tuple[str, ...]) -> None:
+    assert _violations(ROOT / room, allowed) == []
+
+
+def test_the_checker_catches_a_world_import(tmp_path: Path) -> None:
+    # The test above must be able to fail: an onboard module that reads truth is caught.
+    bad = tmp_path / "onboard"
+    bad.mkdir()
+    (bad / "leak.py").write_text(
+        "from twin.world.truth import Truth\nfrom twin.core import frames\n"
+    )
+    global ROOT
+    saved, ROOT = ROOT, tmp_path
+    try:
+        assert _violations(bad, ("twin.onboard", "twin.core")) == [
+            "onboard/leak.py imports twin.world.truth.Truth"
+        ]
+    finally:
+        ROOT = saved
+
+
+def test_twin_has_no_flat_modules_left() -> None:
+    # Every module lives in a room; twin/ itself holds only the package marker.
+    assert sorted(p.name for p in (ROOT / "twin").glob("*.py")) == ["__init__.py"]

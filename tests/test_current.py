@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from twin.current import Current, CurrentProfilePoint
+from twin.world.current import Current, CurrentProfilePoint
 
 
 def test_constant_current_flows_toward_its_compass_direction() -> None:

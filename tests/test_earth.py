@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin import earth
+from twin.core import earth
 
 # navigation.md §2.4 table (pyins.earth.gravity at h = 0).
 SOMIGLIANA_TABLE = [(0.0, 9.780325), (30.0, 9.793247), (45.0, 9.806198)]
@@ -73,7 +73,7 @@ def test_transport_rate_moving_east_on_equator() -> None:
 
 
 def test_earth_module_imports_nothing_from_the_world_side() -> None:
-    """twin.earth is shared with onboard code: only stdlib math, numpy and twin.frames."""
+    """twin.core.earth is shared with onboard code: only stdlib math, numpy and twin.core.frames."""
     tree = ast.parse(Path(earth.__file__).read_text())
     imported: set[str] = set()
     for node in ast.walk(tree):
@@ -81,4 +81,4 @@ def test_earth_module_imports_nothing_from_the_world_side() -> None:
             imported |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module:
             imported.add(node.module)
-    assert imported <= {"__future__", "math", "numpy", "twin.frames"}, imported
+    assert imported <= {"__future__", "math", "numpy", "twin.core.frames"}, imported

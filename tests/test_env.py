@@ -10,7 +10,7 @@ from absl.testing import absltest
 from dm_env import test_utils
 
 import scenarios
-from twin.env import AuvEnv
+from twin.app.env import AuvEnv
 
 
 def _short_scenario(seconds: float = 3.0) -> scenarios.Scenario:

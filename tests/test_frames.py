@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from twin import frames
+from twin.core import frames
 
 
 def test_euler_round_trip() -> None:

@@ -12,9 +12,9 @@ from rrd_helpers import entities
 
 import scenarios
 from scenarios.schema import Navigation, WaypointLeg
-from twin.navsources import EstimateNav, TruthNav
-from twin.run import run_scenario
-from twin.world import build_world
+from twin.app.navsources import EstimateNav, TruthNav
+from twin.app.run import run_scenario
+from twin.app.simulation import build_simulation
 
 
 def _short_trial(duration_s: float = 30.0, variants: tuple[str, ...] = ("ins", "lig")):
@@ -72,19 +72,19 @@ def test_the_recording_holds_the_estimates_errors_and_polarimeter_images(short_r
 
 
 def test_variants_start_from_one_shared_perturbed_alignment() -> None:
-    world = build_world(_short_trial(variants=("ins", "lig")), seed=3)
+    world = build_simulation(_short_trial(variants=("ins", "lig")), seed=3)
     a, b = (world.navigators[v].nav_state() for v in ("ins", "lig"))
     assert np.array_equal(a.c_bn, b.c_bn) and np.array_equal(a.v_enu, b.v_enu)
     assert (a.lat_rad, a.lon_rad, a.h_m) == (b.lat_rad, b.lon_rad, b.h_m)
     truth = world.plant.truth()
     assert a.heading_deg != pytest.approx(truth.heading_deg, abs=1e-9)  # perturbed by P0
-    other = build_world(_short_trial(variants=("ins", "lig")), seed=4).navigators["ins"]
+    other = build_simulation(_short_trial(variants=("ins", "lig")), seed=4).navigators["ins"]
     assert not np.array_equal(other.nav_state().c_bn, a.c_bn)
     exact = _short_trial(variants=("ins",))
     exact = dataclasses.replace(
         exact, navigation=dataclasses.replace(exact.navigation, initial_error=False)
     )
-    s = build_world(exact).navigators["ins"].nav_state()
+    s = build_simulation(exact).navigators["ins"].nav_state()
     assert s.heading_deg == pytest.approx(truth.heading_deg, abs=1e-9)
 
 
@@ -96,9 +96,9 @@ def test_same_seed_same_navigation_metrics(tmp_path) -> None:
 
 
 def test_without_a_filter_the_autopilot_steers_on_truth() -> None:
-    world = build_world(scenarios.load("lawnmower_10m"))
+    world = build_simulation(scenarios.load("lawnmower_10m"))
     assert world.navigators == {} and isinstance(world.nav, TruthNav)
-    assert isinstance(build_world(scenarios.load("default")).nav, TruthNav)
+    assert isinstance(build_simulation(scenarios.load("default")).nav, TruthNav)
 
 
 def _closed_loop(variants: tuple[str, ...], steer: str, duration_s: float):
@@ -115,7 +115,7 @@ def _closed_loop(variants: tuple[str, ...], steer: str, duration_s: float):
 
 def test_a_closed_loop_run_on_the_ins_estimate_completes_its_leg(tmp_path) -> None:
     sc = _closed_loop(("ins",), "ins", 90.0)
-    world = build_world(sc)
+    world = build_simulation(sc)
     assert isinstance(world.nav, EstimateNav)
     assert world.nav.navigator is world.navigators["ins"]
     m = run_scenario(sc, tmp_path, camera=False)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from twin.actuators import ActuatorCommand
-from twin.current import Current
-from twin.frames import skew
-from twin.plant import Plant, PlantConfig
+from twin.core.frames import skew
+from twin.core.messages import ActuatorCommand
+from twin.world.current import Current
+from twin.world.plant import Plant, PlantConfig
 
 
 @pytest.fixture(scope="module")
@@ -175,7 +175,7 @@ def test_bad_plant_configuration_is_rejected_with_the_field_named() -> None:
 
 
 def test_free_body_mass_matrix_is_constant_in_body_coordinates(plant: Plant) -> None:
-    # The implicit added-mass solve relies on it (twin.plant docstring).
+    # The implicit added-mass solve relies on it (twin.world.plant docstring).
     m0 = plant.rigid_mass_matrix_b()
     plant.reset(position_n=(3.0, -2.0, -5.0), rpy_rad=(0.4, -0.7, 2.1))
     np.testing.assert_allclose(plant.rigid_mass_matrix_b(), m0, atol=1e-12)

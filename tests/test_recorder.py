@@ -1,4 +1,4 @@
-"""twin.recorder: real .rrd files in tmp_path, read back with rerun.chunk.RrdReader."""
+"""twin.record.recorder: real .rrd files in tmp_path, read back with rerun.chunk.RrdReader."""
 
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ import pytest
 import rerun.blueprint as rrb
 from rerun.chunk import ChunkStore, LazyStore, RrdReader
 
-from twin.frames import euler_to_quat
-from twin.messages import Reading
-from twin.recorder import MAX_SERIES_WIDTH, Recorder, default_blueprint, salvage
+from twin.core.frames import euler_to_quat
+from twin.core.messages import Reading
+from twin.record.recorder import MAX_SERIES_WIDTH, Recorder, default_blueprint, salvage
 
 START = dt.datetime(2024, 6, 21, 10, 30, 15, 250000, tzinfo=dt.UTC)
 START_NS = (START - dt.datetime(1970, 1, 1, tzinfo=dt.UTC)) // dt.timedelta(microseconds=1) * 1000
@@ -419,8 +419,8 @@ def test_auto_flush_writes_while_running(tmp_path: Path) -> None:
 _KILLED_RUN = """
 import datetime as dt, os, signal
 import numpy as np
-from twin.messages import Reading
-from twin.recorder import Recorder
+from twin.core.messages import Reading
+from twin.record.recorder import Recorder
 
 rec = Recorder({path!r}, recording_id="killed",
                start_utc=dt.datetime(2024, 6, 21, tzinfo=dt.UTC), flush_every_s=1.0)

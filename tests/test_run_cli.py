@@ -17,8 +17,8 @@ from rerun.chunk import RrdReader
 from rrd_helpers import entities
 
 import scenarios
-from twin.cli import main
-from twin.run import run_scenario
+from twin.app.cli import main
+from twin.app.run import run_scenario
 
 
 def _column(rrd: Path, entity: str, component: str) -> np.ndarray:
@@ -134,7 +134,7 @@ def test_cli_run_end_to_end(tmp_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "twin.cli",
+            "twin.app.cli",
             "run",
             str(f),
             "--out",
@@ -158,7 +158,7 @@ def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Pat
         [
             sys.executable,
             "-m",
-            "twin.cli",
+            "twin.app.cli",
             "run",
             "lawnmower_10m",
             "--out",

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 import scenarios
-from twin.run import run_scenario
+from twin.app.run import run_scenario
 
 
 def _variants(depth: int, duration_s: float, tmp: Path) -> dict:
@@ -48,7 +48,7 @@ def test_the_sea_trials_from_the_cli_compare_pol_and_lig(tmp_path) -> None:
     for depth in (10, 15):
         out = tmp_path / f"st{depth}"
         proc = subprocess.run(
-            [sys.executable, "-m", "twin.cli", "run", f"sea_trial_{depth}m", "--out", str(out),
+            [sys.executable, "-m", "twin.app.cli", "run", f"sea_trial_{depth}m", "--out", str(out),
              "--quiet", "--no-camera"],
             capture_output=True, text=True, timeout=1800,
         )  # fmt: skip

@@ -1,5 +1,14 @@
-"""auv-twin: the world (physics, hydrodynamics, environment) and the run loop.
+"""auv-twin: a MuJoCo digital twin of an AUV that navigates by skylight.
 
-The vehicle computer lives in :mod:`twin.onboard` and must not import world modules; see
-docs/architecture.md.
+The package is a house of rooms; the folder tells which side of the world/onboard boundary a module
+is on (docs/architecture.md; tests/test_boundary.py checks the import graph):
+
+* :mod:`twin.core`: the contract both sides share (frames, earth, messages, calibration, the sun
+  ephemeris, the mission plan).
+* :mod:`twin.world`: the world: plant, vehicle, hydrodynamics, actuators, current, truth, the
+  world's assembly. The sensors are the top-level :mod:`sensors` package.
+* :mod:`twin.onboard`: the vehicle computer: INS, filter, compass methods, autopilot, guidance.
+* :mod:`twin.scoring`: estimates and the mission scored against truth.
+* :mod:`twin.record`: the Rerun recording.
+* :mod:`twin.app`: the stepping core, the run loop, the dm_env/Gymnasium environments, the CLI.
 """

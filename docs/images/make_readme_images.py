@@ -16,11 +16,11 @@ import cv2
 import numpy as np
 
 import sensors
-from sensors.polarimeter import images
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.sun import sun_position
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 from twin.onboard.polarization import stokes_from_mosaic
+from twin.record import images
 
 OUT = Path(__file__).resolve().parent
 SUN = sun_position(dt.datetime(2021, 9, 3, 2, 0, tzinfo=dt.UTC), 37.54, 122.06)

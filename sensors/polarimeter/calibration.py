@@ -3,7 +3,7 @@
 World side of the world/onboard boundary (the world may import onboard code, not the reverse).
 What a flawless checkerboard session would give the vehicle: the same radial model, principal
 point and polarization mapping the renderer uses, expressed in pixels of the *delivered* (binned)
-frame, which is how :class:`twin.onboard.calibration.CameraCalibration` states its intrinsics.
+frame, which is how :class:`twin.core.calibration.CameraCalibration` states its intrinsics.
 
 Binning b (``sensors.polarimeter.camera``): binned pixel k sits at full-resolution coordinate
 b·k + (b − 1)/2 and the intrinsics are given at full resolution, so in binned pixels the focal
@@ -17,7 +17,7 @@ import math
 
 from sensors.polarimeter.camera import FisheyeSpec
 from sensors.polarimeter.mosaic import PolarizationSensorSpec
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
 
 
 def calibration_from_spec(

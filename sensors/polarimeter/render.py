@@ -60,7 +60,7 @@ from sensors.polarimeter.calibration import calibration_from_spec
 from sensors.polarimeter.sky import SkySpec, sky_radiance
 from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunTracker
 from sensors.registry import register
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
 
 FloatArray = NDArray[np.floating]
 

@@ -8,7 +8,7 @@ direction Snell refraction starts from.
 
 Angles are radians; azimuth is the compass azimuth (clockwise from North, pvlib's convention), and
 ``direction_enu`` is the unit vector from the observer towards the sun in the ENU navigation frame
-(x East, y North, z Up; :mod:`twin.frames`):
+(x East, y North, z Up; :mod:`twin.core.frames`):
 ``(sin Z sin A, sin Z cos A, cos Z)`` for apparent zenith Z and compass azimuth A.
 
 Night: :data:`NIGHT_ELEVATION_DEG` = −0.833°, the conventional sunset/sunrise of the sun's upper

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models import AUV_DIR, SCENES
-from twin.vehicle import REMUS100
+from twin.world.vehicle import REMUS100
 
 
 @pytest.mark.parametrize("scene", sorted(SCENES))
@@ -44,7 +44,7 @@ def test_model_has_the_sites_sensors_and_actuators_the_twin_uses() -> None:
     for sensor in ("imu/accelerometer", "imu/gyro", "imu/linvel", "depth/position"):
         m.sensor(sensor)
     assert [m.actuator(i).name for i in range(m.nu)] == ["rudder", "stern_planes", "propeller"]
-    # Built-in fluid model off: twin.hydrodynamics does the hydrodynamics.
+    # Built-in fluid model off: twin.world.hydrodynamics does the hydrodynamics.
     assert m.opt.density == 0 and m.opt.viscosity == 0
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter.sun import sun_position
-from twin.onboard.ephemeris import sun_direction_enu, sun_zenith_azimuth
+from twin.core.ephemeris import sun_direction_enu, sun_zenith_azimuth
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:

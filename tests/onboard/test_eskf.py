@@ -12,8 +12,8 @@ from scipy.stats import chi2
 
 from sensors import registry
 from sensors.imu import DEG_PER_H, DEG_PER_RT_H, IMU_PRESETS, MICRO_G, Imu
-from twin import earth
-from twin.frames import euler_to_dcm, skew, wrap_pi
+from twin.core import earth
+from twin.core.frames import euler_to_dcm, skew, wrap_pi
 from twin.onboard.eskf import (
     DIM,
     Eskf,

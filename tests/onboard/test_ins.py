@@ -9,9 +9,9 @@ import pytest
 
 from sensors import registry
 from sensors.imu import Imu
-from twin import earth
-from twin.frames import F_FROM_B, euler_to_dcm, wrap_pi
-from twin.messages import Reading
+from twin.core import earth
+from twin.core.frames import F_FROM_B, euler_to_dcm, wrap_pi
+from twin.core.messages import Reading
 from twin.onboard.ins import InsConfig, NavState, StrapdownIns
 
 LAT = math.radians(45.0)

@@ -221,7 +221,7 @@ def test_module_stays_on_the_onboard_side_of_the_boundary():
     code = (
         "import sys, twin.onboard.polarization\n"
         "bad = [m for m in sys.modules if m == 'sensors' or m.startswith('sensors.')"
-        " or m in ('mujoco', 'twin.plant', 'twin.truth')]\n"
+        " or m in ('mujoco', 'twin.world.plant', 'twin.world.truth')]\n"
         "assert not bad, bad\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

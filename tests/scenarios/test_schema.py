@@ -213,11 +213,11 @@ def test_all_features_file() -> None:
     assert isinstance(s.initial.position_m, tuple)
     assert isinstance(s.initial.depth_m, float)  # TOML integers become floats in float fields
     assert dict(s.sensors.imu_overrides) == {
-        "gyro_bias_dph": 10.0,
-        "accel_bias_mg": (1.0, 2, 3.5),
-        "bits": 16,
+        "gyro_turn_on_bias": 1.0e-4,
+        "accel_noise_density": (1.0e-3, 2, 3.5e-3),
+        "rate_hz": 200,
     }
-    assert isinstance(dict(s.sensors.imu_overrides)["bits"], int)
+    assert isinstance(dict(s.sensors.imu_overrides)["rate_hz"], int)
     assert s.autopilot.attitude_source == "estimate"
     assert s.recording.camera is False
     assert s.navigation.variants == ("ins", "pol", "lig")
@@ -391,7 +391,7 @@ PROFILE_BAD = [
 
 # (id, base, mutation, field path the error must start with, text the message must contain)
 BAD_CASES: list[tuple[str, str, Mutation, str, str]] = [
-    ("latitude 95", OPEN_SEA, _set("place.latitude_deg", 95.0), "place.latitude_deg", "[-90, 90]"),
+    ("latitude 95", OPEN_SEA, _set("place.latitude_deg", 95.0), "place.latitude_deg", "(-90, 90)"),
     ("longitude NaN", OPEN_SEA, _set("place.longitude_deg", math.nan), "place.longitude_deg",
      "not a finite number"),
     ("depth inf", OPEN_SEA, _set("initial.depth_m", math.inf), "initial.depth_m", "finite"),

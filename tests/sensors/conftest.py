@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from sensors.base import Sensor
-from twin import earth
-from twin.frames import euler_to_quat
+from twin.core import earth
+from twin.core.frames import euler_to_quat
 
 SCENE = Path(__file__).resolve().parents[2] / "models" / "auv" / "scene_open_sea.xml"
 T0_UTC = dt.datetime(2021, 7, 31, 2, 0, tzinfo=dt.UTC)

@@ -12,8 +12,8 @@ import pytest
 
 from sensors import noise, registry
 from sensors.imu import DEG_PER_H, DEG_PER_RT_H, MICRO_G, Imu, ImuSpec
-from twin import earth
-from twin.frames import euler_to_dcm
+from twin.core import earth
+from twin.core.frames import euler_to_dcm
 
 LAT = math.radians(45.0)
 G45 = earth.normal_gravity(LAT)

@@ -44,7 +44,7 @@ Measurements (z = predicted − measured, the paper's sign):
   3-D update would have a singular innovation covariance when Σ_b is rank 2, as compass fixes'
   tangent-plane covariances are).
 * depth: Z_d = h_est − (−depth) = δh + v. Height is relative to the scenario's sea surface,
-  which the Earth model takes as the ellipsoid (:mod:`twin.earth`): h = −depth.
+  which the Earth model takes as the ellipsoid (:mod:`twin.core.earth`): h = −depth.
 
 Gating: every innovation's NIS = yᵀ S⁻¹ y is tested against the chi-square quantile
 ``EskfConfig.gate_probability`` for its dimension; a rejected measurement is recorded in
@@ -83,9 +83,9 @@ from typing import Any, Literal
 import numpy as np
 from scipy.stats import chi2
 
-from twin import earth
-from twin.frames import FloatArray, dcm_to_euler, yaw_to_heading_deg
-from twin.messages import Reading
+from twin.core import earth
+from twin.core.frames import FloatArray, dcm_to_euler, yaw_to_heading_deg
+from twin.core.messages import Reading
 from twin.onboard.ins import InsConfig, NavState, StrapdownIns
 
 __all__ = [
@@ -412,7 +412,7 @@ class NavEstimate:
 
     Attributes:
         t: Time (s).
-        roll, pitch, yaw: Attitude (rad), :mod:`twin.frames` convention.
+        roll, pitch, yaw: Attitude (rad), :mod:`twin.core.frames` convention.
         heading_deg: Compass heading, degrees clockwise from North.
         heading_sigma_deg: 1σ of the heading, √P[φ_U, φ_U] in degrees (exact for a level
             vehicle, first order otherwise).
@@ -740,7 +740,7 @@ class Eskf:
         return True
 
     def predict_reading(self, reading: Reading) -> bool:
-        """One INS step with an IMU :class:`~twin.messages.Reading` (dt from the time stamps)."""
+        """One INS step with an IMU reading (dt from the time stamps)."""
         dt = reading.t - self.ins.t
         if not self.ins.step_reading(reading):
             return False

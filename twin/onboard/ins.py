@@ -2,8 +2,8 @@
 
 The vehicle computer's dead reckoning: attitude C_b^n, ENU velocity v^n and geodetic position
 (latitude L, longitude λ, height h) integrated from the IMU's angular rate and specific force (or
-their increments). Frames and Euler angles follow :mod:`twin.frames` (n = ENU; b = x starboard,
-y forward, z up); the Earth model is :mod:`twin.earth` (WGS84 normal gravity, radii, Earth and
+their increments). Frames and Euler angles follow :mod:`twin.core.frames` (n = ENU; b = x starboard,
+y forward, z up); the Earth model is :mod:`twin.core.earth` (WGS84 normal gravity, radii, Earth and
 transport rates), reused here and never duplicated.
 
 Mechanization (Titterton & Weston §3.5; Savage 1998; the same discrete algorithm as pyins'
@@ -44,9 +44,9 @@ from typing import Literal
 
 import numpy as np
 
-from twin import earth
-from twin.frames import FloatArray, dcm_to_euler, dcm_to_quat, euler_to_dcm, yaw_to_heading_deg
-from twin.messages import Reading
+from twin.core import earth
+from twin.core.frames import FloatArray, dcm_to_euler, dcm_to_quat, euler_to_dcm, yaw_to_heading_deg
+from twin.core.messages import Reading
 
 __all__ = ["InsConfig", "NavState", "StrapdownIns", "rotvec_to_dcm"]
 
@@ -120,7 +120,7 @@ class InsConfig:
     """Mechanization options.
 
     Attributes:
-        free_air_gravity: True: γ(L, h) with the free-air height gradient (:func:`twin.earth.
+        free_air_gravity: True: γ(L, h) with the free-air height gradient (:func:`twin.core.earth.
             normal_gravity`). False: γ(L, 0) whatever the height — the depth-independent
             gravity the simulated world uses (``sensors.imu`` module docstring), so the INS has
             zero gravity-model error against the twin.
@@ -201,7 +201,7 @@ class NavState:
         pitch: float = 0.0,
         yaw: float = 0.0,
     ) -> NavState:
-        """Build from (roll, pitch, yaw) in radians, :mod:`twin.frames` convention."""
+        """Build from (roll, pitch, yaw) in radians, :mod:`twin.core.frames` convention."""
         for name, v in (("roll", roll), ("pitch", pitch), ("yaw", yaw)):
             _check_finite_range("NavState", name, v, -2 * math.pi, 2 * math.pi)
         return cls(
@@ -411,7 +411,7 @@ class StrapdownIns:
         return True
 
     def step_reading(self, reading: Reading, dt: float | None = None) -> bool:
-        """Advance with an IMU :class:`~twin.messages.Reading`.
+        """Advance with an IMU :class:`~twin.core.messages.Reading`.
 
         Channels ``angular_rate`` and ``specific_force``; ``dt`` defaults to ``reading.t − t``.
         """
@@ -461,7 +461,7 @@ class StrapdownIns:
         r_m = r_n * (1.0 - earth.E2) / d
         rm_h, rn_h = r_m + h, r_n + h
         ie_n, ie_u = earth.OMEGA_IE * cl, earth.OMEGA_IE * sl
-        # ω_in = ω_ie + ω_en (twin.earth.transport_rate_enu)
+        # ω_in = ω_ie + ω_en (twin.core.earth.transport_rate_enu)
         chi_e = -v_n / rm_h
         chi_n = ie_n + v_e / rn_h
         chi_u = ie_u + v_e * tl / rn_h

@@ -11,7 +11,8 @@ Variants run side by side on the same readings (the run loop hands every reading
 their comparison is paired: same IMU noise, same frames, same initial error.
 
 Onboard side: it sees only readings and the vehicle's declared knowledge
-(:class:`VehicleKnowledge`); scoring against truth is the world's business (``twin.navscore``).
+(:class:`VehicleKnowledge`); scoring against truth is the world's business
+(``twin.scoring.navigation``).
 """
 
 from __future__ import annotations
@@ -22,11 +23,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from twin import earth
-from twin.messages import Reading
-from twin.onboard.calibration import CameraCalibration
+from twin.core import earth
+from twin.core.calibration import CameraCalibration
+from twin.core.ephemeris import sun_direction_enu
+from twin.core.messages import Reading
 from twin.onboard.compass import CompassContext, CompassFix, create
-from twin.onboard.ephemeris import sun_direction_enu
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
 from twin.onboard.ins import NavState
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from twin.frames import euler_to_dcm, heading_deg_to_yaw
+from twin.core.frames import euler_to_dcm, heading_deg_to_yaw
 from twin.onboard.compass import CompassContext, available, create, heading_from_sun
 from twin.onboard.compass.base import finish_fix
 

@@ -18,7 +18,7 @@ import pytest
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import available, create
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import analysis_geometry, block_intensity

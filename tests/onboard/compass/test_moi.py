@@ -20,7 +20,7 @@ from sensors.polarimeter.camera import Camera, preset
 from sensors.polarimeter.mosaic import DoFPSensor
 from sensors.polarimeter.mosaic import preset as sensor_preset
 from sensors.polarimeter.sky import SkySpec, sky_radiance
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import CompassContext, create
 from twin.onboard.compass.moi import Liang2020Config, estimate_axis
 

@@ -10,7 +10,7 @@ import pytest
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.roia import RoiaConfig, RoiaMethod, p_scattered, tilt_rad, zenith_crop

@@ -17,7 +17,7 @@ from sensors.polarimeter.camera import (
     preset,
 )
 from sensors.polarimeter.sky import SkySpec, sky_radiance
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 
 F_FE185_MM = 1.8
 PITCH_MM = 3.45e-3

@@ -17,7 +17,7 @@ from scene_world import NARROW_PIER, SceneWorld
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
 from sensors.polarimeter.sky import SkySpec
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 
 
 def _sun(zenith_deg: float, azimuth_deg: float) -> np.ndarray:

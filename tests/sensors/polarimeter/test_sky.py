@@ -16,7 +16,7 @@ from sensors.polarimeter.sky import (
     sky_radiance,
 )
 from sensors.polarimeter.sun import direction_from_zenith_azimuth
-from twin.frames import euler_to_dcm
+from twin.core.frames import euler_to_dcm
 
 NO_DISC = {"sun_relative_radiance": 0.0}
 

@@ -1,10 +1,10 @@
 """One interface for every compass method: a raw polarimeter frame in, a solar-vector fix out.
 
 Onboard side of the world/onboard boundary: a method sees the raw mosaic, the camera calibration
-(:class:`~twin.onboard.calibration.CameraCalibration`), the attitude hint from the INS (roll and
+(:class:`~twin.core.calibration.CameraCalibration`), the attitude hint from the INS (roll and
 pitch, as the LIG paper's C_b^h), and the place and time — never truth.
 
-Frames (``twin.frames``): body b = x starboard, y forward, z up; horizontal h = the body frame
+Frames (``twin.core.frames``): body b = x starboard, y forward, z up; horizontal h = the body frame
 turned level (h = C_b^h b with C_b^h = Rx(pitch)·Ry(roll)), so that n = Rz(yaw)·h; navigation
 n = ENU. The camera frame c is the ``polarimeter`` site frame (C_c^b = the calibration's mount
 rotation, identity for the shipped vehicle). A solar vector points from the camera towards the
@@ -26,8 +26,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.frames import euler_to_dcm, wrap_pi
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
+from twin.core.frames import euler_to_dcm, wrap_pi
 
 FloatArray = NDArray[np.float64]
 
@@ -40,13 +40,14 @@ class CompassContext:
         utc: Time of the exposure (timezone-aware UTC, or naive meaning UTC).
         latitude_deg: Declared (or INS) latitude.
         longitude_deg: Declared (or INS) longitude.
-        roll_rad: Attitude hint from the INS (``twin.frames`` convention); 0 for a level camera.
+        roll_rad: Attitude hint from the INS (``twin.core.frames`` convention); 0 for a level
+            camera.
         pitch_rad: Attitude hint from the INS.
         depth_m: Depth hint (depth gauge), m; 0 in air.
         water_index: Refractive index of the water the camera looks up through (declared
             knowledge); 1.0 means the camera is in air (no refraction to undo).
         sun_enu: Optional ephemeris solar vector (ENU, unit). When None the method computes it
-            from utc and the place (:func:`twin.onboard.ephemeris.sun_direction_enu`).
+            from utc and the place (:func:`twin.core.ephemeris.sun_direction_enu`).
     """
 
     utc: dt.datetime

@@ -66,7 +66,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
+from twin.core.ephemeris import sun_direction_enu
 from twin.onboard.compass.base import (
     CompassContext,
     CompassFix,
@@ -74,7 +75,6 @@ from twin.onboard.compass.base import (
     no_fix,
     register,
 )
-from twin.onboard.ephemeris import sun_direction_enu
 
 FloatArray = NDArray[np.float64]
 
@@ -89,7 +89,7 @@ def check_raw(raw: object, calibration: CameraCalibration) -> NDArray[np.generic
     """Validate a raw mosaic against the calibration; a ValueError/TypeError names the field."""
     if not isinstance(calibration, CameraCalibration):
         raise TypeError(
-            f"calibration: {type(calibration).__name__}; allowed: twin.onboard.calibration."
+            f"calibration: {type(calibration).__name__}; allowed: twin.core.calibration."
             "CameraCalibration"
         )
     if not isinstance(raw, np.ndarray):

@@ -25,7 +25,7 @@ Three registered methods, all for a camera whose optical axis points at the zeni
   centroid of the accumulator above half its maximum (a thick band gives a flat-topped peak, whose
   first maximum — what ``cv2.HoughLines`` reports — is biased by up to half the flat top).
 
-Geometry and conventions (``twin.onboard.calibration``): image coordinates about the principal
+Geometry and conventions (``twin.core.calibration``): image coordinates about the principal
 point x = u − c_u, y = −(v − c_v) are the camera frame's x and y. AoP ψ is measured from +u towards
 +v (``twin.onboard.polarization``). The local meridian of a zenith-pointing, radially symmetric
 lens is the radial image direction, at image angle ξ = atan2(v − c_v, u − c_u) in the same sense,
@@ -63,9 +63,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
+from twin.core.ephemeris import sun_direction_enu
 from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
-from twin.onboard.ephemeris import sun_direction_enu
 from twin.onboard.polarization import stokes_from_mosaic
 
 FloatArray = NDArray[np.float64]

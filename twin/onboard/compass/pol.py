@@ -46,7 +46,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.onboard.calibration import CameraCalibration
+from twin.core.calibration import CameraCalibration
 from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
 from twin.onboard.compass.lig import (
     AnalysisGeometry,

@@ -73,7 +73,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.onboard.calibration import CameraCalibration, StokesGrid
+from twin.core.calibration import CameraCalibration, StokesGrid
 from twin.onboard.compass.base import (
     CompassContext,
     CompassFix,

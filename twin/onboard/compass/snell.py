@@ -91,8 +91,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.frames import euler_to_dcm
-from twin.onboard.calibration import CameraCalibration, StokesGrid
+from twin.core.calibration import CameraCalibration, StokesGrid
+from twin.core.ephemeris import sun_direction_enu
+from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import (
     CompassContext,
     CompassFix,
@@ -101,7 +102,6 @@ from twin.onboard.compass.base import (
     no_fix,
     register,
 )
-from twin.onboard.ephemeris import sun_direction_enu
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
 _NIGHT_ELEVATION_RAD = math.radians(-0.833)

@@ -1,7 +1,7 @@
 """Ocean current: constant, a depth profile, or a mean plus Gauss–Markov gusts.
 
 Currents are horizontal and given in the navigation frame (ENU). The vehicle feels them through its
-velocity relative to the water (twin.hydrodynamics works on ν_r = ν − ν_c).
+velocity relative to the water (twin.world.hydrodynamics works on ν_r = ν − ν_c).
 """
 
 from __future__ import annotations

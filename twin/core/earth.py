@@ -3,9 +3,9 @@
 Pure math, shared by the world (sensor synthesis) and the vehicle computer (strapdown INS): it
 imports nothing from the world side, only the standard library and numpy.
 
-Frames follow :mod:`twin.frames`: the navigation frame n is local-level ENU, so vectors here are
-[East, North, Up]. Heights ``h_m`` are above the ellipsoid, taken equal to the height above the sea
-surface (the geoid undulation is ignored); a submerged vehicle has h < 0.
+Frames follow :mod:`twin.core.frames`: the navigation frame n is local-level ENU, so vectors
+here are [East, North, Up]. Heights ``h_m`` are above the ellipsoid, taken equal to the height
+above the sea surface (the geoid undulation is ignored); a submerged vehicle has h < 0.
 
 Sources:
     * WGS84 defining constants and the Somigliana closed form: NIMA TR8350.2 (3rd ed., 2000),
@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from twin.frames import FloatArray
+from twin.core.frames import FloatArray
 
 # --- WGS84 (NIMA TR8350.2 §3; pyins.earth, navigation.md §1.1) --------------------------------
 A_M = 6378137.0

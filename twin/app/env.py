@@ -21,10 +21,10 @@ import numpy as np
 from dm_env import specs
 
 from scenarios.schema import Scenario
-from twin.actuators import ActuatorCommand
-from twin.autopilot import Setpoint
-from twin.truth import Truth
-from twin.world import World, build_world
+from twin.app.simulation import Simulation, build_simulation
+from twin.core.messages import ActuatorCommand
+from twin.onboard.control.autopilot import Setpoint
+from twin.world.truth import Truth
 
 Control = Literal["setpoint", "actuator"]
 
@@ -57,7 +57,7 @@ class AuvEnv(dm_env.Environment):
         self._seed0 = scenario.seed if seed is None else seed
         self._episode = 0
         self._reward_fn = reward_fn
-        self._world: World = build_world(scenario, self._seed0)
+        self._world: Simulation = build_simulation(scenario, self._seed0)
         dt = self._world.physics_dt
         n = round(control_period_s / dt)
         if n < 1 or not math.isclose(n * dt, control_period_s, rel_tol=1e-9, abs_tol=1e-12):
@@ -109,12 +109,12 @@ class AuvEnv(dm_env.Environment):
         return self._world.plant.truth()
 
     @property
-    def world(self) -> World:
+    def world(self) -> Simulation:
         return self._world
 
     def reset(self) -> dm_env.TimeStep:
         if self._episode > 0:
-            self._world = build_world(self._scenario, self._seed0 + self._episode)
+            self._world = build_simulation(self._scenario, self._seed0 + self._episode)
         self._episode += 1
         self._needs_reset = False
         self._obs = {k: np.zeros(s.shape, s.dtype) for k, s in self._obs_spec.items()}
@@ -136,12 +136,13 @@ class AuvEnv(dm_env.Environment):
         if self._control == "setpoint":
             a = np.clip(a, spec.minimum, spec.maximum)
             sp = Setpoint(float(a[0]), float(a[1]), math.radians(float(a[2])))
-            cmd = w.autopilot.update(w.nav.nav_state(), sp, self._period)
+            nav = w.nav.nav_state()
+            w.setpoint = sp
+            cmd = w.autopilot.update(nav, sp, self._period)
         else:
             cmd = ActuatorCommand(float(a[0]), float(a[1]), float(a[2]))
         for _ in range(self._substeps):
-            w.plant.step(cmd)
-            self._collect()
+            self._observe(w.step(cmd).readings)
         obs = self._observation()
         reward = 0.0 if self._reward_fn is None else float(self._reward_fn(self.truth, obs))
         if w.plant.t >= self._scenario.duration_s - 1e-9:
@@ -150,8 +151,12 @@ class AuvEnv(dm_env.Environment):
         return dm_env.transition(reward, obs)
 
     def _collect(self) -> None:
+        """At reset: the readings due at t = 0 (the stepping core delivers them to the filters)."""
         readings = self._world.suite.poll(self._world.plant)
-        self._world.deliver(readings)  # the onboard filters, when the scenario runs any
+        self._world.deliver(readings)
+        self._observe(readings)
+
+    def _observe(self, readings: list) -> None:
         for reading in readings:
             self._obs[f"{reading.sensor}/t"] = np.float64(reading.t)
             for channel, value in reading.values.items():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from scenarios.schema import (
+from twin.core.mission import (
     HeadingLeg,
     LawnmowerMission,
     LegsMission,
@@ -13,7 +13,7 @@ from scenarios.schema import (
     StationKeepingMission,
     WaypointLeg,
 )
-from twin.autopilot import NavState, Setpoint
+from twin.onboard.control.autopilot import NavState, Setpoint
 
 
 @dataclass(frozen=True, slots=True)

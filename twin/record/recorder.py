@@ -59,8 +59,8 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
-from twin.frames import wxyz_to_xyzw
-from twin.messages import Reading
+from twin.core.frames import wxyz_to_xyzw
+from twin.core.messages import Reading
 
 SIM_TIME = "sim_time"
 UTC = "utc"
@@ -418,7 +418,7 @@ class Recorder:
             position_n: Position in n (ENU, m), shape (3,).
             quat_wxyz: Attitude C_b^n as a quaternion (w, x, y, z), shape (4,).
             velocity_n: Velocity in n (m/s), shape (3,).
-            rpy_deg: Roll, pitch, yaw (deg; yaw CCW from North, see ``twin.frames``).
+            rpy_deg: Roll, pitch, yaw (deg; yaw CCW from North, see ``twin.core.frames``).
             heading_deg: Compass heading (deg, CW from North).
             depth_m: Depth below the surface (m, positive down).
         """

@@ -1,10 +1,12 @@
 """Autopilot: speed, depth and heading hold, steering on a navigation source.
 
 The autopilot takes its attitude, depth and speed from a :class:`NavSource`: truth
-(``twin.navsources.TruthNav``) or an onboard filter's estimate (``EstimateNav``, scenario setting
-``autopilot.attitude_source = "estimate"``): the autopilot code does not change, only the source.
+(``twin.app.navsources.TruthNav``) or an onboard filter's estimate (``EstimateNav``, scenario
+setting ``autopilot.attitude_source = "estimate"``): the autopilot code does not change, only
+the source.
 
-Sign conventions (twin.actuators): positive rudder turns to starboard (heading increases);
+Sign conventions (twin.core.messages.ActuatorCommand): positive rudder turns to starboard
+(heading increases);
 positive stern planes pitch the nose up.
 """
 
@@ -14,8 +16,10 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from twin.actuators import ActuatorCommand
-from twin.frames import wrap_pi
+import numpy as np
+
+from twin.core.frames import wrap_pi
+from twin.core.messages import ActuatorCommand
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,12 +88,35 @@ class AutopilotGains:
     integrator_limit: float = 0.3
 
 
+@dataclass(frozen=True, slots=True)
+class PropellerMap:
+    """The vehicle's declared speed–propeller curve: steady forward speed (m/s) to rev/s.
+
+    Declared knowledge (the vehicle's datasheet or acceptance-trial table), not the plant's
+    hydrodynamics: the autopilot's feed-forward interpolates it linearly and clamps at the ends.
+    """
+
+    speeds_mps: tuple[float, ...]
+    rps: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        s = np.asarray(self.speeds_mps, float)
+        r = np.asarray(self.rps, float)
+        if s.ndim != 1 or s.shape != r.shape or len(s) < 2:
+            raise ValueError("PropellerMap: speeds_mps and rps must be equal-length, >= 2 points")
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(r)) and np.all(np.diff(s) > 0)):
+            raise ValueError("PropellerMap: speeds must be finite and increasing, rps finite")
+
+    def __call__(self, speed_mps: float) -> float:
+        return float(np.interp(speed_mps, self.speeds_mps, self.rps))
+
+
 class Autopilot:
     """Speed, depth and heading hold.
 
     Args:
         rps_for_speed: Steady-state propeller speed (rev/s) for a forward speed (m/s): the
-            feed-forward map (``Hydrodynamics.rps_for_speed``).
+            feed-forward map (a :class:`PropellerMap`, or any callable).
         gains: Controller gains.
         max_rps: Propeller limit (rev/s).
         max_fin_rad: Fin travel, for anti-windup.

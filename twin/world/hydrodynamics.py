@@ -2,7 +2,7 @@
 
 Everything here is in Fossen's body frame f (x forward, y starboard, z down) at the CO (= CB = the
 MuJoCo body origin), on the velocity relative to the water ν_r = ν − ν_c. The plant converts the
-result to the body frame b with :data:`twin.frames.F_FROM_B`.
+result to the body frame b with :data:`twin.core.frames.F_FROM_B`.
 
 What MuJoCo does and what this module does (Fossen 2021, eq. 8.1 with relative velocity):
 
@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from twin.vehicle import VehicleParams, hoerner_cd
+from twin.world.vehicle import VehicleParams, hoerner_cd
 
 
 def _crossflow(v: float, r: float, half_length: float) -> tuple[float, float]:

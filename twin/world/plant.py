@@ -34,13 +34,13 @@ import mujoco
 import numpy as np
 
 from models import SCENES
-from twin import earth
-from twin.actuators import ACTUATOR_NAMES, ActuatorCommand, CommandLimiter
-from twin.current import Current
-from twin.frames import F_FROM_B, dcm_to_euler, euler_to_quat, yaw_to_heading_deg
-from twin.hydrodynamics import Hydrodynamics
-from twin.truth import Truth
-from twin.vehicle import REMUS100, VehicleParams
+from twin.core import earth
+from twin.core.frames import F_FROM_B, dcm_to_euler, euler_to_quat, yaw_to_heading_deg
+from twin.world.actuators import ACTUATOR_NAMES, ActuatorCommand, CommandLimiter
+from twin.world.current import Current
+from twin.world.hydrodynamics import Hydrodynamics
+from twin.world.truth import Truth
+from twin.world.vehicle import REMUS100, VehicleParams
 
 STANDARD_ATMOSPHERE_PA = 101_325.0
 VEHICLE_BODY = "auv"

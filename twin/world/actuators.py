@@ -8,31 +8,12 @@ command is clipped to the travel and slewed at the servo's rate limit before MuJ
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-import numpy as np
-
-from twin.vehicle import VehicleParams
+from twin.core.messages import ActuatorCommand
+from twin.world.vehicle import VehicleParams
 
 ACTUATOR_NAMES = ("rudder", "stern_planes", "propeller")
-
-
-@dataclass(frozen=True, slots=True)
-class ActuatorCommand:
-    """Raw actuator commands.
-
-    Attributes:
-        rudder_rad: Rudder angle; positive turns the vehicle to starboard (heading increases).
-        stern_rad: Stern-plane angle; positive pitches the nose up.
-        propeller_rps: Propeller speed in revolutions per second (>= 0).
-    """
-
-    rudder_rad: float = 0.0
-    stern_rad: float = 0.0
-    propeller_rps: float = 0.0
-
-    def as_array(self) -> np.ndarray:
-        return np.array([self.rudder_rad, self.stern_rad, self.propeller_rps])
+__all__ = ["ACTUATOR_NAMES", "ActuatorCommand", "CommandLimiter"]
 
 
 class CommandLimiter:

@@ -1,4 +1,4 @@
-"""What crosses the world/onboard boundary: timestamped sensor readings.
+"""What crosses the world/onboard boundary: sensor readings in, actuator commands out.
 
 This module is shared by both sides. It imports nothing from the world (no MuJoCo, no truth), so the
 onboard package may depend on it.
@@ -31,3 +31,21 @@ class Reading:
 
     def __getitem__(self, channel: str) -> np.ndarray:
         return self.values[channel]
+
+
+@dataclass(frozen=True, slots=True)
+class ActuatorCommand:
+    """Raw actuator commands.
+
+    Attributes:
+        rudder_rad: Rudder angle; positive turns the vehicle to starboard (heading increases).
+        stern_rad: Stern-plane angle; positive pitches the nose up.
+        propeller_rps: Propeller speed in revolutions per second (>= 0).
+    """
+
+    rudder_rad: float = 0.0
+    stern_rad: float = 0.0
+    propeller_rps: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.rudder_rad, self.stern_rad, self.propeller_rps])

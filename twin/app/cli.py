@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -38,7 +39,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from twin.run import format_summary, run_scenario  # heavy imports only when running
+    from twin.app.run import format_summary, prepare_output, run_scenario  # heavy: when running
 
     try:
         sc = scenarios.load(args.scenario)
@@ -53,6 +54,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return 2
     out = Path(args.out) if args.out else Path("runs") / sc.name
     try:
+        prepare_output(out)  # before anything is flown
+    except OSError as exc:
+        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    try:
         metrics = run_scenario(
             sc,
             out,
@@ -63,6 +69,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"\ninterrupted: partial recording and metrics in {out}", file=sys.stderr)
         return 130
+    except OSError as exc:  # e.g. the disk filled up, or closing the recording failed
+        print(f"error: {exc}; metrics.json in {out} records it", file=sys.stderr)
+        return 1
     print(format_summary(metrics))
     print(f"recording: {out / 'recording.rrd'}  (open with: rerun {out / 'recording.rrd'})")
     print(f"metrics:   {out / 'metrics.json'}")
@@ -72,9 +81,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from sensors.polarimeter import images
+    from twin.app.run import prepare_output
+    from twin.app.simulation import build_simulation
     from twin.onboard.polarization import stokes_from_mosaic
-    from twin.world import build_world, polarimeter_sensor
+    from twin.record import images
+    from twin.world.assembly import polarimeter_sensor
 
     try:
         sc = scenarios.load(args.scenario)
@@ -87,12 +98,21 @@ def _cmd_render(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    world = build_world(sc, args.seed)
+    if args.seed is not None and args.seed < 0:
+        print(f"error: --seed {args.seed}: must be an integer >= 0", file=sys.stderr)
+        return 2
+    out = Path(args.out) if args.out else Path("runs") / f"{sc.name}_t{args.at:g}"
     try:
         cam = polarimeter_sensor(sc, None if sc.sensors.polarimeter else args.preset)
     except (KeyError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: --preset {args.preset}: {exc}", file=sys.stderr)
         return 2
+    try:
+        prepare_output(out)  # before anything is flown
+    except OSError as exc:
+        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    world = build_simulation(sc, args.seed)
     world.fly(args.at)
     rng = np.random.default_rng(np.random.SeedSequence(world.seed).spawn(4)[3])
     cam.reset(world.plant, rng)
@@ -104,10 +124,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
         black_level_dn=ss.black_level_dn,
         saturation_dn=ss.saturation_dn,
     )
-    out = Path(args.out) if args.out else Path("runs") / f"{sc.name}_t{args.at:g}"
-    out.mkdir(parents=True, exist_ok=True)
     stem = f"{sc.name}_t{args.at:g}"
-    written = images.write_pngs(pol, out, stem)
+    try:
+        written = images.write_pngs(pol, out, stem)
+    except OSError as exc:
+        print(f"error: writing the images to {out}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
     tr = world.plant.truth()
     print(
         f"{sc.name} at t = {args.at:g} s ({world.plant.utc:%Y-%m-%d %H:%M:%S} UTC): depth "
@@ -160,8 +182,33 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    return int(args.func(args))
+    """The command line's entry point: an exit code, never a traceback.
+
+    Ctrl-C at any moment (start-up included) exits with 130; an error a user can fix is one line
+    naming what and where; an unexpected one is one line too, with how to get the traceback
+    (``AUV_TWIN_DEBUG=1``).
+    """
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        print("\ninterrupted", file=sys.stderr)
+        return 130
+    except OSError as exc:
+        if os.environ.get("AUV_TWIN_DEBUG"):
+            raise
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
+    except Exception as exc:
+        if os.environ.get("AUV_TWIN_DEBUG"):
+            raise
+        print(
+            f"error: {type(exc).__name__}: {exc} (an internal error; AUV_TWIN_DEBUG=1 shows the "
+            "traceback)",
+            file=sys.stderr,
+        )
+        return 1
 
 
 if __name__ == "__main__":

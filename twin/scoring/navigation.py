@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2
 
-from twin.frames import quat_to_dcm, wrap_deg180, wrap_pi
+from twin.core.frames import quat_to_dcm, wrap_deg180, wrap_pi
 from twin.onboard.eskf import attitude_error
-from twin.onboard.navigator import Navigator
-from twin.truth import Truth
+from twin.onboard.navigator import CompassEvent, Navigator
+from twin.world.truth import Truth
 
 _CHI2_3_95 = float(chi2.ppf(0.95, 3))
 
@@ -127,3 +127,69 @@ def _rms(x: list[float]) -> float:
 
 def _r(x: float, nd: int = 4) -> float:
     return round(float(x), nd) if math.isfinite(x) else float(x)
+
+
+@dataclass
+class FixScore:
+    """Every compass fix of one variant against truth: heading and solar-vector errors.
+
+    The heading error is the fix's heading (through the onboard ephemeris) minus the true heading;
+    the solar-vector error is the angle between the fix's body-frame sun and the true sun (in air)
+    in the true body frame, from the truth that travelled with the frame.
+    """
+
+    name: str
+    frames: int = 0
+    fixes: int = 0
+    unscored: int = 0
+    t: list[float] = field(default_factory=list)
+    heading_err: list[float] = field(default_factory=list)
+    sun_err: list[float] = field(default_factory=list)
+
+    def add(self, event: CompassEvent, truth: Truth | None, frame_truth: object) -> None:
+        """Score one processed frame (``truth`` None: the frame's instant is not at hand)."""
+        self.frames += 1
+        fix = event.fix
+        if not fix.ok:
+            return
+        self.fixes += 1
+        if truth is None:
+            self.unscored += 1
+            return
+        self.t.append(event.t)
+        self.heading_err.append(
+            float(wrap_deg180(fix.heading_deg - truth.heading_deg))
+            if fix.heading_deg is not None
+            else math.nan
+        )
+        sun_enu = getattr(frame_truth, "sun_enu", None)
+        if fix.sun_body is not None and sun_enu is not None:
+            s_true = quat_to_dcm(truth.quat_wxyz).T @ np.asarray(sun_enu, float)
+            s_fix = np.asarray(fix.sun_body, float)
+            c = float(s_true @ s_fix / (np.linalg.norm(s_true) * np.linalg.norm(s_fix)))
+            self.sun_err.append(math.degrees(math.acos(max(-1.0, min(1.0, c)))))
+        else:
+            self.sun_err.append(math.nan)
+
+    def summary(self) -> dict[str, Any]:
+        h = np.asarray([x for x in self.heading_err if math.isfinite(x)])
+        s = np.asarray([x for x in self.sun_err if math.isfinite(x)])
+        out: dict[str, Any] = {
+            "frames": self.frames,
+            "fixes": self.fixes,
+            "scored": len(self.t),
+            "unscored_delayed": self.unscored,
+        }
+        if h.size:
+            out |= {
+                "heading_error_rmse_deg": _r(float(np.sqrt(np.mean(h * h)))),
+                "heading_error_mean_deg": _r(float(np.mean(h))),
+                "heading_error_max_deg": _r(float(np.max(np.abs(h)))),
+            }
+        if s.size:
+            out |= {
+                "sun_vector_error_mean_deg": _r(float(np.mean(s))),
+                "sun_vector_error_median_deg": _r(float(np.median(s))),
+                "sun_vector_error_max_deg": _r(float(np.max(s))),
+            }
+        return out

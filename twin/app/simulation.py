@@ -1,6 +1,13 @@
-"""Builds the world of a scenario: plant, current, sensors, guidance and autopilot.
+"""The stepping core: one scenario's world and vehicle computer, stepped together.
 
-Shared by the run loop (:mod:`twin.run`) and the dm_env environment (:mod:`twin.env`), so both
+:func:`build_simulation` assembles the world (:mod:`twin.world.assembly`: plant, current,
+sensors) and the vehicle computer (onboard filter variants, guidance, autopilot) from one scenario
+and one seed. :meth:`Simulation.step` is the one place a step happens: physics under a command,
+the sensors that are due, their readings delivered to every filter variant; it returns a
+:class:`StepResult` (readings, compass events, the truth the sensors recorded with their readings)
+and hands it to the observers (the recorder and the scorer hang off it, in the pattern of
+dm_control's ``rl/control.py``). The CLI run (:mod:`twin.app.run`), the dm_env environment
+(:mod:`twin.app.env`) and offline flights (:meth:`Simulation.fly`) all step through it, so they
 simulate exactly the same thing for the same scenario and seed.
 """
 
@@ -8,27 +15,26 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-import sensors
 from scenarios.schema import Scenario
-from sensors.polarimeter.render import OpticsConfig
-from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
-from twin.autopilot import Autopilot
-from twin.current import Current, CurrentProfilePoint
-from twin.earth import principal_radii
-from twin.frames import heading_deg_to_yaw, quat_to_dcm
-from twin.guidance import Guidance
-from twin.messages import Reading
-from twin.navsources import EstimateNav, NavSource, TruthNav
+from twin.app.navsources import TruthNav
+from twin.core.earth import principal_radii
+from twin.core.frames import quat_to_dcm
+from twin.core.messages import ActuatorCommand, Reading
+from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, Setpoint
+from twin.onboard.control.guidance import Guidance, GuidanceStatus
+from twin.onboard.control.navsource import EstimateNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
 from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
-from twin.plant import Plant, PlantConfig
+from twin.world.assembly import build_current, build_plant, build_suite, optics_config
+from twin.world.hydrodynamics import Hydrodynamics
+from twin.world.plant import Plant
 
 # Order of the root seed's children. Append new consumers at the end: existing streams then stay
 # the same when a new stochastic component is added.
@@ -36,8 +42,32 @@ SEED_SENSORS, SEED_CURRENT, SEED_NAV = 0, 1, 2
 _N_SEED_CHILDREN = 3
 
 
+@dataclass(frozen=True, slots=True)
+class StepResult:
+    """What one step produced.
+
+    Attributes:
+        t: Sim time after the step.
+        readings: Sensor readings delivered during the step, in delivery order.
+        truth: For each reading (same order), the truth its sensor recorded with it (the
+            polarimeter's truth layers), or None. Truth channel: scoring and recording only.
+        events: Frames the filter variants' compass methods processed, as (variant, event).
+    """
+
+    t: float
+    readings: list[Reading]
+    truth: list[object]
+    events: list[tuple[str, CompassEvent]]
+
+
+class Observer(Protocol):
+    """Something that watches the simulation step (the recorder, a scorer)."""
+
+    def on_step(self, sim: Simulation, result: StepResult) -> None: ...
+
+
 @dataclass
-class World:
+class Simulation:
     """Everything a run steps, built from one scenario and one seed."""
 
     scenario: Scenario
@@ -48,6 +78,19 @@ class World:
     autopilot: Autopilot
     nav: NavSource
     navigators: dict[str, Navigator] = field(default_factory=dict)
+    observers: list[Observer] = field(default_factory=list)
+    # The last setpoint and guidance status of :meth:`control` (for the recorder and the scorer).
+    setpoint: Setpoint = field(default_factory=lambda: Setpoint(0.0, 0.0, 0.0))
+    status: GuidanceStatus = field(default_factory=lambda: GuidanceStatus(0, 0, False, 0.0))
+
+    @property
+    def physics_dt(self) -> float:
+        return float(self.plant.model.opt.timestep)
+
+    @property
+    def autopilot_every(self) -> int:
+        """Physics steps per autopilot update."""
+        return max(1, round(1.0 / (self.scenario.autopilot.rate_hz * self.physics_dt)))
 
     def deliver(self, readings: list[Reading]) -> list[tuple[str, CompassEvent]]:
         """Hand sensor readings (in delivery order) to every onboard filter variant.
@@ -62,134 +105,78 @@ class World:
                     events.append((name, event))
         return events
 
-    @property
-    def physics_dt(self) -> float:
-        return float(self.plant.model.opt.timestep)
+    def control(self, setpoint: Setpoint | None = None) -> ActuatorCommand:
+        """The vehicle computer's command now: guidance's setpoint (or ``setpoint``), autopilot.
+
+        Call once per autopilot period (:attr:`autopilot_every` physics steps).
+        """
+        nav = self.nav.nav_state()
+        if setpoint is None:
+            self.setpoint, self.status = self.guidance.update(nav, self.plant.t)
+        else:
+            self.setpoint = setpoint
+        return self.autopilot.update(nav, self.setpoint, self.autopilot_every * self.physics_dt)
+
+    def step(self, command: ActuatorCommand) -> StepResult:
+        """Step physics under ``command``; sensors sampled, readings delivered, observers told."""
+        self.plant.step(command)
+        pairs = self.suite.poll_with_truth(self.plant)
+        readings = [r for r, _ in pairs]
+        events = self.deliver(readings) if self.navigators and readings else []
+        result = StepResult(self.plant.t, readings, [x for _, x in pairs], events)
+        for obs in self.observers:
+            obs.on_step(self, result)
+        return result
 
     def fly(self, until_s: float) -> None:
         """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.
 
-        Nothing is recorded: this is for getting somewhere (``auv-twin render``), not for
-        recording (``twin.run``). The sensors are sampled only when onboard filters run (their
-        estimates need the readings; the autopilot may steer on one).
+        Observers see every step; with none attached nothing is recorded (``auv-twin render``
+        flies somewhere this way).
         """
-        sc = self.scenario
         dt = self.physics_dt
-        every = max(1, round(1.0 / (sc.autopilot.rate_hz * dt)))
+        every = self.autopilot_every
         cmd = None
         k = 0
         while self.plant.t < until_s - 0.5 * dt:
             if cmd is None or k % every == 0:
-                nav = self.nav.nav_state()
-                sp, _ = self.guidance.update(nav, self.plant.t)
-                cmd = self.autopilot.update(nav, sp, every * dt)
-            self.plant.step(cmd)
-            if self.navigators:
-                self.deliver(self.suite.poll(self.plant))
+                cmd = self.control()
+            self.step(cmd)
             k += 1
 
 
-def _current(scenario: Scenario, rng: np.random.Generator) -> Current:
-    c = scenario.current
-    return Current(
-        c.kind,
-        speed_mps=c.speed_mps,
-        toward_deg=c.toward_deg,
-        profile=tuple(CurrentProfilePoint(p.depth_m, p.speed_mps, p.toward_deg) for p in c.profile),
-        sigma_mps=c.sigma_mps,
-        tau_s=c.tau_s,
-        rng=rng,
+def propeller_map(sim_plant: Plant) -> PropellerMap:
+    """The vehicle's declared speed–rpm curve (its datasheet / acceptance-trial table).
+
+    Tabulated once from the *declared* vehicle parameters in a fresh hydrodynamic model, not from
+    the plant's own object: the autopilot knows the curve the vehicle was sold with.
+    """
+    p = sim_plant.params
+    declared = Hydrodynamics(p, sim_plant.config.water_density_kg_m3, sim_plant.gravity_mps2)
+    top = declared.steady_speed_mps(p.prop_max_rpm / 60.0)
+    speeds = np.linspace(0.0, top, 401)
+    return PropellerMap(
+        tuple(float(s) for s in speeds),
+        tuple(declared.rps_for_speed(float(s)) if s > 0 else 0.0 for s in speeds),
     )
 
 
-def _sensor(kind: str, preset: str, overrides: tuple[tuple[str, object], ...]) -> sensors.Sensor:
-    """Create a scenario's sensor; any error names the scenario field."""
-    try:
-        return sensors.create(
-            kind, preset, **{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides}
-        )
-    except (KeyError, ValueError, TypeError) as exc:
-        raise ValueError(f"sensors.{kind}: {exc}") from exc
-
-
-def optics_config(scenario: Scenario) -> OpticsConfig:
-    """The polarimeter's OpticsConfig from the scenario's [optics] and [water] tables."""
-    o, w = scenario.optics, scenario.water
-    sky = SkySpec(
-        cie_type=o.cie_sky_type,
-        polarization=o.sky_polarization,
-        dop_max=o.dop_max,
-        berry_delta_rad=math.radians(o.berry_delta_deg),
-        zenith_radiance=o.zenith_radiance_w_m2_sr_nm,
-        wavelength_nm=o.wavelength_nm,
-    )
-    return OpticsConfig(
-        sky=sky,
-        jerlov_type=w.jerlov_type,
-        turbidity=o.turbidity,
-        salinity_psu=w.salinity_psu,
-        temperature_c=w.temperature_c,
-        wavelength_nm=o.wavelength_nm,
-        wind_speed_mps=o.wind_speed_mps,
-        wind_toward_deg=o.wind_toward_deg,
-    )
-
-
-def polarimeter_sensor(scenario: Scenario, preset: str | None = None) -> sensors.Sensor:
-    """The scenario's polarimeter (or one from ``preset``), configured with its optics."""
-    s = scenario.sensors
-    name = preset or s.polarimeter
-    if name is None:
-        raise ValueError("sensors.polarimeter: the scenario has no polarimeter")
-    cam = _sensor("polarimeter", name, s.polarimeter_overrides if preset is None else ())
-    cam.configure(optics_config(scenario))
-    return cam
-
-
-def build_world(scenario: Scenario, seed: int | None = None) -> World:
-    """Build and reset the world of ``scenario`` (seed defaults to the scenario's)."""
+def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
+    """Build and reset the simulation of ``scenario`` (seed defaults to the scenario's)."""
     seed = scenario.seed if seed is None else seed
     children = np.random.SeedSequence(seed).spawn(_N_SEED_CHILDREN)
-    current = _current(scenario, np.random.default_rng(children[SEED_CURRENT]))
-    plant = Plant(
-        PlantConfig(
-            scene=scenario.scene,
-            latitude_deg=scenario.place.latitude_deg,
-            longitude_deg=scenario.place.longitude_deg,
-            start_utc=scenario.start_utc,
-            water_density_kg_m3=scenario.water.density_kg_m3,
-            seabed_depth_m=scenario.water.seabed_depth_m,
-        ),
-        current,
-    )
-    ini = scenario.initial
-    plant.reset(
-        position_n=(ini.position_m[0], ini.position_m[1], plant.surface_z_m - ini.depth_m),
-        rpy_rad=(
-            math.radians(ini.roll_deg),
-            math.radians(ini.pitch_deg),
-            heading_deg_to_yaw(ini.heading_deg),
-        ),
-        forward_speed_mps=ini.speed_mps,
-    )
-    s = scenario.sensors
-    # Sensor order fixes each one's random stream (SensorSuite): append, never insert.
-    suite_sensors = [
-        _sensor("imu", s.imu, s.imu_overrides),
-        _sensor("depth", s.depth, s.depth_overrides),
-    ]
-    if s.polarimeter is not None:
-        suite_sensors.append(polarimeter_sensor(scenario))
-    suite = SensorSuite(suite_sensors, seed=children[SEED_SENSORS])
-    suite.reset(plant)
+    current = build_current(scenario, np.random.default_rng(children[SEED_CURRENT]))
+    plant = build_plant(scenario, current)
+    suite = build_suite(scenario, plant, children[SEED_SENSORS])
     navigators = _navigators(scenario, plant, suite, children[SEED_NAV])
-    # Wheel-over radius: about 3/4 of the 26 m full-rudder turning radius of the REMUS model, so
+    ini = scenario.initial
+    # Wheel-over radius: about 3/4 of the REMUS model's full-rudder turning radius at cruise, so
     # the autopilot keeps some rudder in reserve through the turn.
     guidance = Guidance(
         scenario.mission, (ini.position_m[0], ini.position_m[1]), turn_radius_m=20.0
     )
     autopilot = Autopilot(
-        plant.hydro.rps_for_speed,
+        propeller_map(plant),
         max_rps=plant.params.prop_max_rpm / 60.0,
         max_fin_rad=plant.params.fin_max_rad,
     )
@@ -198,7 +185,7 @@ def build_world(scenario: Scenario, seed: int | None = None) -> World:
         steer = scenario.navigation.steering_variant
         assert steer is not None  # the loader refuses "estimate" without variants
         nav = EstimateNav(navigators[steer])
-    return World(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
+    return Simulation(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
 
 
 def _imu_grade(spec: Any) -> ImuGrade:

@@ -21,7 +21,7 @@ class Truth:
         quat_wxyz: Attitude quaternion C_b^n, MuJoCo order.
         velocity_n: Body-origin velocity over ground in ENU (m/s).
         omega_b: Angular velocity relative to the (non-rotating) world, body axes (rad/s).
-        roll_rad: Roll (see twin.frames).
+        roll_rad: Roll (see twin.core.frames).
         pitch_rad: Pitch.
         yaw_rad: ENU yaw (counter-clockwise from North).
         heading_deg: Compass heading, degrees clockwise from North.

@@ -8,7 +8,7 @@ versions differ (fin travel 15° vs 30°, servo time constant 0.1 s vs 1 s, yaw 
 5 s) the choice is marked below. models/auv/README.md lists every number with its source.
 
 All hydrodynamic quantities are in Fossen's body frame f (x forward, y starboard, z down) at the
-centre of origin CO = centre of buoyancy; :mod:`twin.frames` converts to the body frame b.
+centre of origin CO = centre of buoyancy; :mod:`twin.core.frames` converts to the body frame b.
 """
 
 from __future__ import annotations
@@ -169,7 +169,7 @@ class VehicleParams:
     def linear_damping_f(self, g: float = 9.81) -> np.ndarray:
         """Low-speed linear damping diag at zero speed [Xu, Yv, Zw, Kp, Mq, Nr] (positive).
 
-        Surge, sway and yaw fade as exp(-3 U_r) in :mod:`twin.hydrodynamics` (Fossen).
+        Surge, sway and yaw fade as exp(-3 U_r) in :mod:`twin.world.hydrodynamics` (Fossen).
         """
         m_total = self.rigid_mass_matrix_diag_f + self.added_mass_f
         w = self.mass_kg * g

@@ -1,0 +1,216 @@
+"""The run loop: simulate a scenario, record it to Rerun, write metrics.
+
+Outputs, in ``out_dir``:
+  * ``recording.rrd``: the Rerun recording (open with ``rerun recording.rrd``).
+  * ``metrics.json``: the summary. It is written as ``"status": "running"`` before the flight
+    starts and rewritten at the end, so even a killed run leaves a file that says it is incomplete.
+
+The loop is the stepping core (:class:`twin.app.simulation.Simulation`) with two observers: the
+scorer (:class:`twin.scoring.observer.RunScorer`) and the recorder
+(:class:`twin.record.observer.RunRecorder`).
+
+Ctrl-C or an exception stops the loop; the recording is closed (footer written) and the metrics
+are written with ``"complete": false`` and the reason, before the exception propagates. If closing
+the recording fails, metrics.json says so (``"recording_error"``) and the error propagates.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from scenarios.schema import Scenario
+from twin.app.simulation import Simulation, build_simulation
+from twin.record.observer import ChaseCamera, RunRecorder, log_scene
+from twin.record.recorder import Recorder
+from twin.scoring.mission import format_summary, summarize
+from twin.scoring.observer import RunScorer
+
+__all__ = ["format_summary", "prepare_output", "run_scenario"]
+
+# Keep running this long after the last leg is done, so the recording shows the vehicle settle.
+_MISSION_COMPLETE_TAIL_S = 5.0
+
+
+def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(payload, indent=2, sort_keys=False, default=str) + "\n")
+    os.replace(tmp, path)
+
+
+def prepare_output(out_dir: Path | str) -> Path:
+    """Create the output folder and prove it writable, before anything is flown.
+
+    Raises:
+        OSError: With the path in the message: the folder cannot be created (a file is in the
+            way, no permission, a name too long for the file system) or cannot be written.
+    """
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".auv-twin-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise OSError(exc.errno, f"{out}: {reason}") from None
+    return out
+
+
+def _versions() -> dict[str, str]:
+    from importlib import metadata
+
+    out = {"mujoco": mujoco.__version__, "numpy": np.__version__}
+    for dist in ("auv-twin", "rerun-sdk"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:  # running from a source tree without install
+            out[dist] = "unknown"
+    return out
+
+
+def _progress(total_s: float, enabled: bool):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=round(total_s), unit="sim s", desc="sea trial", file=sys.stderr, leave=True)
+
+
+def run_scenario(
+    scenario: Scenario,
+    out_dir: Path | str,
+    *,
+    seed: int | None = None,
+    progress: bool = False,
+    camera: bool | None = None,
+    on_message: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Run one sea trial and write its recording and metrics.
+
+    Args:
+        scenario: A validated scenario.
+        out_dir: Output folder (created).
+        seed: Root seed; defaults to the scenario's.
+        progress: Show a progress bar on stderr.
+        camera: Render the chase camera; ``None`` follows the scenario's recording settings.
+        on_message: Called with one-line notices (e.g. "no GL context"); default: stderr.
+
+    Returns:
+        The metrics dict (also written to ``out_dir/metrics.json``).
+    """
+    say = on_message or (lambda msg: print(msg, file=sys.stderr))
+    out = prepare_output(out_dir)
+    metrics_path = out / "metrics.json"
+    world = build_simulation(scenario, seed)
+    seed_used = world.seed
+    base = {
+        "scenario": scenario.name,
+        "seed": seed_used,
+        "complete": False,
+        "status": "running",
+        "recording": "recording.rrd",
+        "versions": _versions(),
+        # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
+        "scenario_config": scenario.to_dict(),
+    }
+    _write_json_atomic(metrics_path, base)
+
+    rec = Recorder(
+        out / "recording.rrd",
+        recording_id=f"{scenario.name}-seed{seed_used}",
+        start_utc=scenario.start_utc,
+    )
+    want_camera = scenario.recording.camera if camera is None else camera
+    cam: ChaseCamera | None = None
+    if want_camera:
+        cam = ChaseCamera(
+            world.plant.model, scenario.recording.camera_width, scenario.recording.camera_height
+        )
+        if not cam.available:
+            say(f"note: no GL context for the chase camera ({cam.reason}); continuing without it")
+            cam = None
+
+    scorer = RunScorer(world)
+    recorder = RunRecorder(rec, world, scorer, cam)
+    world.observers[:] = [scorer, recorder]  # the recorder logs what the scorer just computed
+    status_text = "running"
+    error: str | None = None
+    recording_error: str | None = None
+    wall0 = time.perf_counter()
+    bar = _progress(scenario.duration_s, progress)
+    try:
+        log_scene(rec, world)
+        status_text = _loop(world, scorer, recorder, bar)
+    except KeyboardInterrupt:
+        status_text, error = "interrupted", "KeyboardInterrupt"
+        raise
+    except Exception as exc:
+        status_text, error = "error", f"{type(exc).__name__}: {exc}"
+        raise
+    finally:
+        wall = time.perf_counter() - wall0
+        if bar is not None:
+            bar.close()
+        if cam is not None:
+            cam.close()
+        world.observers.clear()
+        try:
+            rec.log_text(
+                world.plant.t, f"run ended: {status_text}" + (f" ({error})" if error else "")
+            )
+            rec.close()
+        except Exception as exc:
+            recording_error = f"{type(exc).__name__}: {exc}"
+            if status_text in ("mission_complete", "duration_reached", "running"):
+                status_text, error = "error", f"closing the recording failed: {recording_error}"
+        metrics = {
+            **base,
+            "complete": status_text in ("mission_complete", "duration_reached"),
+            "status": status_text,
+            **({"error": error} if error else {}),
+            **({"recording_error": recording_error} if recording_error else {}),
+            **summarize(world, scorer, wall),
+        }
+        _write_json_atomic(metrics_path, metrics)
+        if recording_error is not None and sys.exc_info()[0] is None:
+            raise OSError(
+                f"closing the recording {out / 'recording.rrd'} failed: {recording_error}"
+            )
+    return metrics
+
+
+def _loop(sim: Simulation, scorer: RunScorer, recorder: RunRecorder, bar) -> str:
+    dt = sim.physics_dt
+    n_steps = round(sim.scenario.duration_s / dt)
+    every_ap = sim.autopilot_every
+    every_bar = max(1, round(1.0 / dt))
+    cmd = None
+    complete_at: float | None = None
+    for k in range(n_steps):
+        if k % every_ap == 0:
+            t = sim.plant.t
+            prev_leg = sim.status.leg
+            cmd = sim.control()
+            if sim.status.leg != prev_leg:
+                scorer.leg_started_at = t
+            recorder.log_control(t, cmd, sim.setpoint)
+            if sim.status.complete and complete_at is None:
+                complete_at = t
+                scorer.active = False
+                recorder.rec.log_text(t, "mission complete")
+        assert cmd is not None
+        sim.step(cmd)
+        if bar is not None and (k + 1) % every_bar == 0:
+            bar.update(1)
+        if complete_at is not None and sim.plant.t - complete_at >= _MISSION_COMPLETE_TAIL_S:
+            return "mission_complete"
+    return "duration_reached"

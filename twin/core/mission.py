@@ -1,0 +1,133 @@
+"""The mission plan: what the vehicle is told to fly (waypoint and heading legs, surveys, loiter).
+
+Shared contract: the scenario file declares it (:mod:`scenarios.schema` re-exports these classes)
+and the vehicle computer's guidance (:mod:`twin.onboard.control.guidance`) flies it. Plain data, no
+world state: positions are (East, North) metres from the launch point, headings compass degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Literal, TypeAlias
+
+Vec2: TypeAlias = tuple[float, float]
+MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping"]
+MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping")
+
+
+@dataclass(frozen=True, slots=True)
+class WaypointLeg:
+    """Go to ``to_m`` = (East, North) at ``depth_m`` and ``speed_mps``.
+
+    The leg ends when the vehicle is horizontally within the mission's ``acceptance_radius_m`` of
+    the point.
+    """
+
+    to_m: Vec2
+    depth_m: float
+    speed_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class HeadingLeg:
+    """Hold compass ``heading_deg`` at ``depth_m`` and ``speed_mps`` for ``duration_s``."""
+
+    heading_deg: float
+    duration_s: float
+    depth_m: float
+    speed_mps: float
+
+
+Leg: TypeAlias = WaypointLeg | HeadingLeg
+
+
+@dataclass(frozen=True, slots=True)
+class LegsMission:
+    """A sequence of waypoint and heading legs, flown in order."""
+
+    kind: ClassVar[Literal["legs"]] = "legs"
+    legs: tuple[Leg, ...]
+    acceptance_radius_m: float = 5.0
+
+    def expand(self) -> tuple[Leg, ...]:
+        """The legs to fly (already explicit for this kind)."""
+        return self.legs
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return tuple(leg.depth_m for leg in self.legs)
+
+
+@dataclass(frozen=True, slots=True)
+class LawnmowerMission:
+    """A boustrophedon survey of ``lanes`` parallel lanes.
+
+    Geometry: the first lane starts at ``origin_m`` and runs ``lane_length_m`` along compass
+    ``heading_deg``. Each next lane lies ``lane_spacing_m`` to the *right* of the previous one (as
+    seen looking along the first lane's direction, i.e. toward ``heading_deg + 90``) and runs the
+    opposite way, so the vehicle turns right, then left, then right... and the pattern covers the
+    rectangle to the right of the first lane.
+    """
+
+    kind: ClassVar[Literal["lawnmower"]] = "lawnmower"
+    origin_m: Vec2
+    heading_deg: float
+    lane_length_m: float
+    lane_spacing_m: float
+    lanes: int
+    depth_m: float
+    speed_mps: float
+    acceptance_radius_m: float = 5.0
+
+    def waypoints_m(self) -> tuple[Vec2, ...]:
+        """Lane endpoints in flying order: start and end of lane 0, of lane 1, ... (2 per lane)."""
+        h = math.radians(self.heading_deg)
+        along = (math.sin(h), math.cos(h))  # (E, N) unit vector of the first lane
+        right = (math.cos(h), -math.sin(h))  # its right-hand normal: heading + 90 deg
+        e0, n0 = self.origin_m
+        out: list[Vec2] = []
+        for i in range(self.lanes):
+            off = i * self.lane_spacing_m
+            a = (e0 + off * right[0], n0 + off * right[1])
+            b = (a[0] + self.lane_length_m * along[0], a[1] + self.lane_length_m * along[1])
+            out.extend([a, b] if i % 2 == 0 else [b, a])
+        return tuple(out)
+
+    def expand(self) -> tuple[WaypointLeg, ...]:
+        """The survey as waypoint legs: 2 per lane (to the lane's start, then to its end).
+
+        The first leg goes to ``origin_m`` from wherever the vehicle starts; between lanes the leg
+        to the next lane's start is the ``lane_spacing_m`` crossover.
+        """
+        return tuple(
+            WaypointLeg(to_m=p, depth_m=self.depth_m, speed_mps=self.speed_mps)
+            for p in self.waypoints_m()
+        )
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return (self.depth_m,)
+
+
+@dataclass(frozen=True, slots=True)
+class StationKeepingMission:
+    """Loiter on a circle of ``radius_m`` around ``center_m`` at ``depth_m`` and ``speed_mps``.
+
+    A torpedo AUV needs way on to steer, so it cannot hover; it circles instead. The direction of
+    the circle is the autopilot's choice.
+    """
+
+    kind: ClassVar[Literal["station_keeping"]] = "station_keeping"
+    center_m: Vec2
+    depth_m: float
+    radius_m: float
+    speed_mps: float
+    acceptance_radius_m: float = 5.0
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return (self.depth_m,)
+
+
+Mission: TypeAlias = LegsMission | LawnmowerMission | StationKeepingMission

@@ -1,0 +1,217 @@
+"""The recording as an observer of the stepping core: what a run writes to Rerun, step by step.
+
+:class:`RunRecorder` hangs off :class:`twin.app.simulation.Simulation` (``sim.observers``): each
+step it logs the readings delivered (the polarimeter's images as onboard code derives them, with
+the true sun drawn from the truth that travelled with the frame), the compass events, the truth and
+every filter variant's errors at the truth rate (from the scorer), and the chase camera.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from sensors.polarimeter.render import PolarimeterTruth
+from twin.core.calibration import CameraCalibration
+from twin.core.messages import ActuatorCommand, Reading
+from twin.onboard.control.autopilot import Setpoint
+from twin.onboard.navigator import CompassEvent
+from twin.onboard.polarization import stokes_from_mosaic
+from twin.record import images
+from twin.record.recorder import Recorder
+
+if TYPE_CHECKING:
+    from twin.app.simulation import Simulation, StepResult
+    from twin.scoring.observer import RunScorer
+
+
+class ChaseCamera:
+    """MuJoCo's view of the vehicle rendered offscreen, if a GL context can be had.
+
+    Uses the scene's ``overview`` camera when it has one (the tank: the vehicle's chase camera
+    would sit outside the walls), else the vehicle's ``chase`` camera.
+
+    Without one (no ``MUJOCO_GL``, no EGL/OSMesa), :attr:`available` is False and the reason is in
+    :attr:`reason`; the run goes on without images.
+    """
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int):
+        self.available = False
+        self.reason = ""
+        self._renderer: mujoco.Renderer | None = None
+        self.camera = (
+            "overview"
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "overview") >= 0
+            else "chase"
+        )
+        # The offscreen buffer must be at least the image size.
+        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        try:
+            self._renderer = mujoco.Renderer(model, height=height, width=width)
+            self.available = True
+        except Exception as exc:
+            self.reason = f"{type(exc).__name__}: {exc}".strip()
+
+    def render(self, data: mujoco.MjData) -> np.ndarray:
+        assert self._renderer is not None
+        self._renderer.update_scene(data, camera=self.camera)
+        return self._renderer.render()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class RunRecorder:
+    """Logs a run to a :class:`Recorder`, as an observer of the simulation's steps.
+
+    Args:
+        rec: The open recording.
+        sim: The simulation (its scenario sets the rates).
+        scorer: The run's scorer, whose per-sample errors are logged under ``/nav/**``.
+        chase: The chase camera, or None.
+    """
+
+    def __init__(
+        self, rec: Recorder, sim: Simulation, scorer: RunScorer, chase: ChaseCamera | None
+    ):
+        sc = sim.scenario
+        dt = sim.physics_dt
+        self.rec = rec
+        self.scorer = scorer
+        self.chase = chase
+        self._every_truth = max(1, round(1.0 / (sc.recording.truth_rate_hz * dt)))
+        self._every_cam = max(1, round(1.0 / (sc.recording.camera_rate_hz * dt)))
+        self._pol_period = 1.0 / sc.recording.polarimeter_log_rate_hz
+        self._next_pol_log_t = 0.0
+        self._k = 0
+        cam = next((s for s in sim.suite.sensors if s.kind == "polarimeter"), None)
+        self._calibration: CameraCalibration | None = (
+            cam.calibration() if cam is not None else None  # type: ignore[attr-defined]
+        )
+
+    def log_control(self, t: float, cmd: ActuatorCommand, sp: Setpoint) -> None:
+        self.rec.log_scalars(
+            "/control/actuators",
+            t,
+            np.array(
+                [np.degrees(cmd.rudder_rad), np.degrees(cmd.stern_rad), cmd.propeller_rps * 60]
+            ),
+            names=["rudder_deg", "stern_deg", "propeller_rpm"],
+        )
+        self.rec.log_scalars(
+            "/control/setpoint",
+            t,
+            np.array([sp.speed_mps, sp.depth_m, np.degrees(sp.heading_rad) % 360.0]),
+            names=["speed_mps", "depth_m", "heading_deg"],
+        )
+
+    def on_step(self, sim: Simulation, result: StepResult) -> None:
+        rec = self.rec
+        for name, event in result.events:
+            _log_compass_event(rec, name, event)
+        for reading, truth in zip(result.readings, result.truth, strict=True):
+            rec.log_reading(reading)
+            if (
+                reading.sensor == "polarimeter"
+                and self._calibration is not None
+                and reading.t >= self._next_pol_log_t
+            ):
+                _log_polarimeter(rec, reading, self._calibration, truth)
+                self._next_pol_log_t = reading.t + self._pol_period - 1e-9
+        self._k += 1
+        if self._k % self._every_truth == 0:
+            truth = self.scorer.last_truth
+            if truth is not None and truth.t == result.t:
+                rec.log_truth(
+                    truth.t,
+                    position_n=truth.position_n,
+                    quat_wxyz=truth.quat_wxyz,
+                    velocity_n=truth.velocity_n,
+                    rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
+                    heading_deg=truth.heading_deg,
+                    depth_m=truth.depth_m,
+                )
+                for name, sample in self.scorer.last_samples.items():
+                    _log_nav_sample(rec, name, truth.t, sample)
+        if self.chase is not None and self._k % self._every_cam == 0:
+            rec.log_image("/camera/chase", sim.plant.t, self.chase.render(sim.plant.data))
+
+
+def log_scene(rec: Recorder, world: Simulation) -> None:
+    wps = world.guidance.waypoints_en
+    depths = [leg.depth_m for leg in world.guidance.legs if hasattr(leg, "to_m")]
+    waypoints = (
+        np.array([[e, n, -d] for (e, n), d in zip(wps, depths, strict=False)]) if wps else None
+    )
+    seabed = world.scenario.water.seabed_depth_m
+    rec.log_static_scene(
+        waypoints_n=waypoints,
+        vehicle_half_sizes=(0.095, 0.8, 0.095),
+        surface_z=world.plant.surface_z_m,
+        seabed_z=-seabed if seabed is not None else None,
+        tank_half_sizes=(6.0, 3.0, 2.0) if world.scenario.scene == "tank" else None,
+    )
+
+
+def _log_polarimeter(rec: Recorder, reading: Reading, cal: CameraCalibration, tr: object) -> None:
+    """Intensity, AoP (cyclic colormap) and DoP images of a frame, as onboard code derives them."""
+    pol = stokes_from_mosaic(
+        reading["raw"],
+        cal.layout_deg,
+        black_level_dn=cal.black_level_dn,
+        saturation_dn=cal.saturation_dn,
+    )
+    mask = images.signal_mask(pol)
+    rec.log_image("/polarimeter/intensity", reading.t, images.intensity_u8(pol.s0))
+    rec.log_image("/polarimeter/aop", reading.t, images.aop_rgb(pol.aop, mask))
+    rec.log_image("/polarimeter/dop", reading.t, images.dop_rgb(pol.dop, mask))
+    # Truth layer (truth channel, for people only): where the refracted sun really is, drawn over
+    # the intensity image (super-pixel grid: raw pixel (u, v) sits at ((u − ½)/2, (v − ½)/2)).
+    if isinstance(tr, PolarimeterTruth):
+        sun = (
+            np.array([[(tr.sun_pixel[0] - 0.5) / 2, (tr.sun_pixel[1] - 0.5) / 2]])
+            if tr.sun_pixel is not None
+            else np.zeros((0, 2))
+        )
+        rec.log_points2d("/polarimeter/intensity/true_sun", reading.t, sun, label="true sun")
+
+
+def _log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
+    """Estimated heading, its error against truth with ±3σ bounds, NEES: time series."""
+    rec.log_scalars(f"/nav/heading_deg/{name}", t, np.array([s["heading_deg"]]), names=[name])
+    sig3 = 3.0 * s["heading_sigma_deg"]
+    rec.log_scalars(
+        f"/nav/{name}/heading_error_deg",
+        t,
+        np.array([s["heading_err_deg"], sig3, -sig3]),
+        names=["error", "+3 sigma", "-3 sigma"],
+    )
+    rec.log_scalars(
+        f"/nav/{name}/attitude_error_deg",
+        t,
+        np.array([s["roll_err_deg"], s["pitch_err_deg"]]),
+        names=["roll", "pitch"],
+    )
+    rec.log_scalars(f"/nav/{name}/position_error_m", t, np.array([s["position_err_m"]]))
+    rec.log_scalars(f"/nav/{name}/nees_attitude", t, np.array([s["nees"]]))
+
+
+def _log_compass_event(rec: Recorder, name: str, event: CompassEvent) -> None:
+    """A processed frame: the fix's heading, or a marked rejection / no-fix."""
+    fix, up = event.fix, event.update
+    if fix.ok and fix.heading_deg is not None:
+        rec.log_scalars(
+            f"/nav/{name}/compass_heading_deg", event.t, np.array([fix.heading_deg]), names=[name]
+        )
+    if up is not None and not up.applied:
+        rec.log_text(
+            event.t, f"{name}: sun update rejected ({up.reason}, NIS {up.nis:.1f})", "WARN"
+        )
+        rec.log_scalars(f"/nav/{name}/rejected_nis", event.t, np.array([up.nis]))
+    elif not fix.ok:
+        rec.log_text(event.t, f"{name}: no compass fix ({fix.reason})", "DEBUG")

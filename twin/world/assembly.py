@@ -1,0 +1,165 @@
+"""The world of a scenario: plant, current and sensors, assembled from the scenario's settings.
+
+World side only: nothing here knows the vehicle computer. :mod:`twin.app.simulation` adds the
+onboard side (filters, guidance, autopilot) and steps both. The scenario loader calls
+:func:`check_sensors` so that ``auv-twin validate`` builds every sensor exactly as a run does.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+import sensors
+from scenarios.schema import Scenario
+from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.sky import SkySpec
+from sensors.suite import SensorSuite
+from twin.core.frames import heading_deg_to_yaw
+from twin.world.current import Current, CurrentProfilePoint
+from twin.world.plant import Plant, PlantConfig
+
+
+def build_current(scenario: Scenario, rng: np.random.Generator) -> Current:
+    c = scenario.current
+    return Current(
+        c.kind,
+        speed_mps=c.speed_mps,
+        toward_deg=c.toward_deg,
+        profile=tuple(CurrentProfilePoint(p.depth_m, p.speed_mps, p.toward_deg) for p in c.profile),
+        sigma_mps=c.sigma_mps,
+        tau_s=c.tau_s,
+        rng=rng,
+    )
+
+
+def build_plant(scenario: Scenario, current: Current) -> Plant:
+    """The plant of ``scenario``, reset to its initial state."""
+    plant = Plant(
+        PlantConfig(
+            scene=scenario.scene,
+            latitude_deg=scenario.place.latitude_deg,
+            longitude_deg=scenario.place.longitude_deg,
+            start_utc=scenario.start_utc,
+            water_density_kg_m3=scenario.water.density_kg_m3,
+            seabed_depth_m=scenario.water.seabed_depth_m,
+        ),
+        current,
+    )
+    ini = scenario.initial
+    plant.reset(
+        position_n=(ini.position_m[0], ini.position_m[1], plant.surface_z_m - ini.depth_m),
+        rpy_rad=(
+            math.radians(ini.roll_deg),
+            math.radians(ini.pitch_deg),
+            heading_deg_to_yaw(ini.heading_deg),
+        ),
+        forward_speed_mps=ini.speed_mps,
+    )
+    return plant
+
+
+def make_sensor(kind: str, preset: str, overrides: tuple[tuple[str, Any], ...]) -> sensors.Sensor:
+    """Create a scenario's sensor; any error names the scenario field."""
+    field = f"sensors.{kind}_overrides" if overrides else f"sensors.{kind}"
+    try:
+        return sensors.create(
+            kind, preset, **{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides}
+        )
+    except KeyError as exc:  # unknown preset or field: KeyError quotes its message
+        raise ValueError(f"{field}: {exc.args[0] if exc.args else exc}") from exc
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{field}: {exc}") from exc
+
+
+def optics_config(scenario: Scenario) -> OpticsConfig:
+    """The polarimeter's OpticsConfig from the scenario's [optics] and [water] tables."""
+    o, w = scenario.optics, scenario.water
+    sky = SkySpec(
+        cie_type=o.cie_sky_type,
+        polarization=o.sky_polarization,
+        dop_max=o.dop_max,
+        berry_delta_rad=math.radians(o.berry_delta_deg),
+        zenith_radiance=o.zenith_radiance_w_m2_sr_nm,
+        wavelength_nm=o.wavelength_nm,
+    )
+    return OpticsConfig(
+        sky=sky,
+        jerlov_type=w.jerlov_type,
+        turbidity=o.turbidity,
+        salinity_psu=w.salinity_psu,
+        temperature_c=w.temperature_c,
+        wavelength_nm=o.wavelength_nm,
+        wind_speed_mps=o.wind_speed_mps,
+        wind_toward_deg=o.wind_toward_deg,
+    )
+
+
+def polarimeter_sensor(scenario: Scenario, preset: str | None = None) -> sensors.Sensor:
+    """The scenario's polarimeter (or one from ``preset``), configured with its optics."""
+    s = scenario.sensors
+    name = preset or s.polarimeter
+    if name is None:
+        raise ValueError("sensors.polarimeter: the scenario has no polarimeter")
+    cam = make_sensor("polarimeter", name, s.polarimeter_overrides if preset is None else ())
+    try:
+        cam.configure(optics_config(scenario))
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ValueError(f"optics: {exc}") from exc
+    return cam
+
+
+def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
+    """The scenario's sensors, in the order that fixes each one's random stream.
+
+    Append new sensors, never insert: :class:`sensors.suite.SensorSuite` spawns one stream per
+    sensor in this order.
+    """
+    s = scenario.sensors
+    out = [
+        make_sensor("imu", s.imu, s.imu_overrides),
+        make_sensor("depth", s.depth, s.depth_overrides),
+    ]
+    if s.polarimeter is not None:
+        out.append(polarimeter_sensor(scenario))
+    return out
+
+
+def check_sensors(scenario: Scenario) -> list[str]:
+    """Every problem building the scenario's sensors would raise, as ``field: message`` lines.
+
+    Builds each sensor as :func:`scenario_sensors` does (so ``validate`` and ``run`` agree by
+    construction), one at a time so that all problems are reported, plus the rules that need a
+    built sensor: the compass cannot process frames faster than the camera takes them.
+    """
+    s = scenario.sensors
+    problems: list[str] = []
+    built: dict[str, sensors.Sensor] = {}
+    for kind, build in (
+        ("imu", lambda: make_sensor("imu", s.imu, s.imu_overrides)),
+        ("depth", lambda: make_sensor("depth", s.depth, s.depth_overrides)),
+        *((("polarimeter", lambda: polarimeter_sensor(scenario)),) if s.polarimeter else ()),
+    ):
+        try:
+            built[kind] = build()
+        except ValueError as exc:
+            problems.append(str(exc))
+    nav = scenario.navigation
+    cam = built.get("polarimeter")
+    compass = [v for v in nav.variants if v != "ins"]
+    if cam is not None and compass and nav.compass_rate_hz > cam.rate_hz + 1e-9:
+        problems.append(
+            f"navigation.compass_rate_hz: {nav.compass_rate_hz!r} is above the camera's frame "
+            f"rate; allowed (0, {cam.rate_hz:g}] Hz (sensors.polarimeter {s.polarimeter!r}"
+            f"{', with overrides' if s.polarimeter_overrides else ''})"
+        )
+    return problems
+
+
+def build_suite(scenario: Scenario, plant: Plant, seed: np.random.SeedSequence) -> SensorSuite:
+    """The scenario's sensors on their schedule, reset on the plant."""
+    suite = SensorSuite(scenario_sensors(scenario), seed=seed)
+    suite.reset(plant)
+    return suite
