@@ -49,8 +49,9 @@ def test_observations_are_sensor_readings_and_time_only() -> None:
     }
     ts = env.reset()
     ts = env.step(np.array([1.5, 10.0, 0.0]))
-    # A level vehicle's accelerometer reads about +g on body z.
-    assert ts.observation["imu/specific_force"][2] == pytest.approx(9.8, abs=0.1)
+    # A level vehicle's accelerometer reads about +g on body z (the newest of the buffered ten;
+    # the standing heel of ~3.5 deg tilts it by 0.2 %).
+    assert ts.observation["imu/specific_force"][-1][2] == pytest.approx(9.8, abs=0.1)
     assert ts.observation["depth/depth_m"].item() == pytest.approx(10.0, abs=0.2)
     assert ts.observation["time_s"] == pytest.approx(0.1)
     raw = ts.observation["polarimeter/raw"]
@@ -87,3 +88,24 @@ def test_bad_arguments_name_what_is_wrong() -> None:
     env.reset()
     with pytest.raises(ValueError, match="action"):
         env.step(np.array([1.0, np.nan, 0.0]))
+
+
+def test_a_policy_sees_every_imu_sample_of_the_control_period() -> None:
+    # 100 Hz IMU, 0.1 s period: the observation holds the ten readings of the period, in order;
+    # the 10 Hz depth gauge and the 1 Hz camera, one reading each (their latest).
+    env = AuvEnv(_short_scenario())
+    spec = env.observation_spec()
+    assert spec["imu/angular_rate"].shape == (10, 3)
+    assert spec["imu/t"].shape == (10,)
+    assert spec["depth/t"].shape == ()
+    assert spec["polarimeter/raw"].shape == (512, 612)
+    first = env.reset().observation
+    # Only the t = 0 sample exists at reset: the other nine slots are marked empty (t = -1).
+    np.testing.assert_array_equal(first["imu/t"][:-1], -1.0)
+    assert first["imu/t"][-1] == 0.0
+    obs = env.step(np.array([1.5, 10.0, 0.0])).observation
+    np.testing.assert_allclose(obs["imu/t"], np.arange(1, 11) * 0.01, atol=1e-9)
+    obs2 = env.step(np.array([1.5, 10.0, 0.0])).observation
+    np.testing.assert_allclose(obs2["imu/t"], np.arange(11, 21) * 0.01, atol=1e-9)
+    # Distinct samples, not one repeated.
+    assert len({tuple(x) for x in obs2["imu/angular_rate"]}) == 10

@@ -64,3 +64,26 @@ def test_mjcf_mass_and_inertia_match_the_vehicle_parameters() -> None:
     # Body axes x starboard, y forward, z up: (I_pitch, I_roll, I_yaw).
     np.testing.assert_allclose(m.body_inertia[body], [iy, ix, iz], rtol=1e-3)
     np.testing.assert_allclose(m.body_ipos[body], [0, 0, -REMUS100.cg_below_cb_m], atol=1e-12)
+
+
+@pytest.mark.parametrize("key", ["trimmed", "cruising"])
+def test_keyframes_hold_their_state_under_the_twins_physics(key: str) -> None:
+    # The plant (MuJoCo + Fossen hydrodynamics) started from the keyframe holds it: it is a trim.
+    from twin.core.messages import ActuatorCommand
+    from twin.world.plant import Plant, PlantConfig
+
+    plant = Plant(PlantConfig())
+    m, d = plant.model, plant.data
+    mujoco.mj_resetDataKeyframe(m, d, m.key(key).id)
+    act = d.act.copy()
+    plant.limiter.reset(tuple(act))
+    plant._sync()  # bring the wrench, accelerations and sensors to the keyframe's state
+    t0 = plant.truth()
+    for _ in range(2000):  # 20 s
+        plant.step(ActuatorCommand(*act))
+    t1 = plant.truth()
+    assert plant.data.warning.number.sum() == 0
+    assert t1.depth_m == pytest.approx(10.0, abs=0.05)
+    assert t1.speed_through_water_mps == pytest.approx(t0.speed_through_water_mps, abs=0.015)
+    assert t1.roll_rad == pytest.approx(t0.roll_rad, abs=np.radians(0.2))
+    assert abs(t1.pitch_rad) < np.radians(0.5)

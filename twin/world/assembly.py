@@ -63,14 +63,14 @@ def build_plant(scenario: Scenario, current: Current) -> Plant:
 
 def make_sensor(kind: str, preset: str, overrides: tuple[tuple[str, Any], ...]) -> sensors.Sensor:
     """Create a scenario's sensor; any error names the scenario field."""
-    field = f"sensors.{kind}_overrides" if overrides else f"sensors.{kind}"
     try:
         return sensors.create(
             kind, preset, **{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides}
         )
-    except KeyError as exc:  # unknown preset or field: KeyError quotes its message
-        raise ValueError(f"{field}: {exc.args[0] if exc.args else exc}") from exc
-    except (ValueError, TypeError) as exc:
+    except KeyError as exc:  # an unknown kind or preset (KeyError quotes its message: unwrap)
+        raise ValueError(f"sensors.{kind}: {exc.args[0] if exc.args else exc}") from exc
+    except (ValueError, TypeError) as exc:  # an unknown or impossible override field
+        field = f"sensors.{kind}_overrides" if overrides else f"sensors.{kind}"
         raise ValueError(f"{field}: {exc}") from exc
 
 

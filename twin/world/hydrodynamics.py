@@ -15,8 +15,8 @@ What MuJoCo does and what this module does (Fossen 2021, eq. 8.1 with relative v
 Deliberate simplifications, all as in Fossen's remus100 model: the Munk moments (the destabilising
 u·w and u·v terms of C_A in pitch and yaw) are left out, because the fins here produce lift from
 their deflection only and could not cancel them; hull lift acts in the vertical plane only; the
-linear damping in surge, sway and yaw fades as exp(−3 U_r) so that quadratic terms dominate at
-speed.
+linear damping in surge and sway fades as exp(−3 U_r) so that quadratic terms dominate at speed
+(yaw's does not: Fossen's remus100 keeps it, and it is what damps the yaw rate in a turn).
 """
 
 from __future__ import annotations
@@ -41,6 +41,18 @@ def _crossflow(v: float, r: float, half_length: float) -> tuple[float, float]:
     df = (abs(sb) ** 3 - abs(sa) ** 3) / 3.0
     dg = (sb**3 * abs(sb) - sa**3 * abs(sa)) / 4.0
     return df / r, (dg - v * df) / (r * r)
+
+
+def _crossflow_strips(v: float, r: float, half_length: float, n: int) -> tuple[float, float]:
+    """Fossen's crossFlowDrag quadrature: n + 1 strips of width L/n at x = −h, −h + L/n, …, h."""
+    dx = 2.0 * half_length / n
+    fy = ny = 0.0
+    for i in range(n + 1):
+        x = -half_length + i * dx
+        s = v + x * r
+        fy += abs(s) * s * dx
+        ny += x * abs(s) * s * dx
+    return fy, ny
 
 
 class Hydrodynamics:
@@ -130,7 +142,7 @@ class Hydrodynamics:
             -ca[2] - d[2] * w,
             -ca[3] - d[3] * p,
             -ca[4] - d[4] * q,
-            -ca[5] - d[5] * fade * r,
+            -ca[5] - d[5] * r,
         ]
 
         # Hull lift and drag in the vertical plane (angle of attack α = atan2(w, u)).
@@ -147,27 +159,33 @@ class Hydrodynamics:
         # Strip-theory cross-flow drag (Fossen's crossFlowDrag, extended to heave/pitch for an
         # axisymmetric hull): a section at x sees v + x r sideways and w − x q vertically. The
         # strip sum is evaluated as its integral, in closed form (no per-step loop).
-        fy, ny = _crossflow(v, r, self._half_length)
-        fz, mz = _crossflow(w, -q, self._half_length)
+        if par.crossflow_strips:
+            fy, ny = _crossflow_strips(v, r, self._half_length, par.crossflow_strips)
+            fz, mz = _crossflow_strips(w, -q, self._half_length, par.crossflow_strips)
+        else:
+            fy, ny = _crossflow(v, r, self._half_length)
+            fz, mz = _crossflow(w, -q, self._half_length)
         tau[1] -= self._k_cross * fy
         tau[5] -= self._k_cross * ny
         tau[2] -= self._k_cross * fz
         tau[4] += self._k_cross * mz
 
-        # Fins: lift ∝ deflection, induced drag ∝ deflection² (Fossen's remus100).
+        # Fins: lift ∝ deflection, induced drag ∝ deflection² (Fossen's remus100). Both act at
+        # x_fin aft of the CO, so their moments are those of a force there: N = x Y, M = −x Z.
+        # Positive stern planes push the tail down (Z > 0 at x < 0), which pitches the nose up.
         u_h2 = u * u + v * v
         u_v2 = u * u + w * w
         y_r = -self._k_rudder * u_h2 * rudder_rad
-        z_s = -self._k_stern * u_v2 * stern_rad
+        z_s = self._k_stern * u_v2 * stern_rad
         tau[0] += -self._k_rudder * u_h2 * rudder_rad**2 - self._k_stern * u_v2 * stern_rad**2
         tau[1] += y_r
         tau[2] += z_s
-        tau[4] += par.fin_x_m * z_s
+        tau[4] -= par.fin_x_m * z_s
         tau[5] += par.fin_x_m * y_r
 
         x_prop, k_prop = self.propeller(n_rps, u)
         tau[0] += (1.0 - par.thrust_deduction) * x_prop
-        tau[3] += k_prop
+        tau[3] += par.prop_torque_on_hull * k_prop
         return tau
 
     def steady_speed_mps(self, n_rps: float) -> float:

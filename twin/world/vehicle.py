@@ -55,13 +55,15 @@ class VehicleParams:
     t_sway_s: float = 20.0
     zeta_roll: float = 0.3
     zeta_pitch: float = 0.8
-    t_yaw_s: float = (
-        5.0  # newer remus100.py; vehicle-and-peers.md §3.1 quotes 1 s from an older one
-    )
-    # Fins (Fossen): rudder single 0.10 x 0.05 m, stern planes double; both at x = -L/2.
-    rudder_area_m2: float = 0.10 * 0.05
+    # Fossen remus100.py (PythonVehicleSimulator c717e07): T_yaw = 1 s, and the yaw damping does
+    # not fade with speed (only surge and sway do). An earlier version of this file used 5 s.
+    t_yaw_s: float = 1.0
+    # Fins: each control pair (upper + lower rudder, port + starboard stern plane) is two fins of
+    # S_fin = 0.00665 m² (Prestero 2001, Table 4.x fin geometry; Fossen remus100.py A_r = A_s =
+    # 2 S_fin); both pairs at x = -L/2 (Fossen). An earlier version used one 0.10 x 0.05 m rudder.
+    rudder_area_m2: float = 2 * 0.00665
     rudder_cl_delta: float = 0.5
-    stern_area_m2: float = 2 * 0.10 * 0.05
+    stern_area_m2: float = 2 * 0.00665
     stern_cl_delta: float = 0.7
     fin_x_m: float = -0.8
     fin_max_rad: float = math.radians(15.0)  # vehicle-and-peers.md §3.1 (older remus100: 15 deg)
@@ -78,8 +80,15 @@ class VehicleParams:
     kt_max: float = 0.1798
     kq_max: float = 0.0312
     ja_max: float = 0.6632
-    # Strip-theory cross-flow: number of strips along the hull.
-    crossflow_strips: int = 20
+    # Strip-theory cross-flow: number of strips along the hull. 0 (default) integrates exactly
+    # over the hull; n > 0 reproduces Fossen's crossFlowDrag, which sums n + 1 strips of L/n (a
+    # 5 % longer hull in sway, 15 % more yaw damping; used only to cross-check against PVS).
+    crossflow_strips: int = 0
+    # Fraction of the propeller's shaft torque that reacts on the hull in roll. 1.0: all of it (a
+    # single open propeller, no stator or counter-rotation; Prestero 2001 measured K_prop = -0.543
+    # N·m at cruise on the REMUS). Fossen's remus100.py scales it by 0.1 "to match exp. results"
+    # without a source; set 0.1 only to cross-check against PVS.
+    prop_torque_on_hull: float = 1.0
 
     def validate(self) -> None:
         """Raise ValueError naming the field if a parameter is impossible."""
@@ -91,6 +100,12 @@ class VehicleParams:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"vehicle.{name} = {v!r}: must be a finite number > 0")
+        if not (math.isfinite(self.prop_torque_on_hull) and 0 <= self.prop_torque_on_hull <= 1):
+            raise ValueError(
+                f"vehicle.prop_torque_on_hull = {self.prop_torque_on_hull!r}: allowed [0, 1]"
+            )
+        if self.crossflow_strips < 0:
+            raise ValueError(f"vehicle.crossflow_strips = {self.crossflow_strips!r}: allowed >= 0")
         if not self.diameter_m < self.length_m:
             raise ValueError("vehicle.diameter_m must be smaller than vehicle.length_m")
         if not 0 <= self.cg_below_cb_m < self.diameter_m / 2:
@@ -169,7 +184,7 @@ class VehicleParams:
     def linear_damping_f(self, g: float = 9.81) -> np.ndarray:
         """Low-speed linear damping diag at zero speed [Xu, Yv, Zw, Kp, Mq, Nr] (positive).
 
-        Surge, sway and yaw fade as exp(-3 U_r) in :mod:`twin.world.hydrodynamics` (Fossen).
+        Surge and sway fade as exp(-3 U_r) in :mod:`twin.world.hydrodynamics` (Fossen).
         """
         m_total = self.rigid_mass_matrix_diag_f + self.added_mass_f
         w = self.mass_kg * g
