@@ -1,86 +1,278 @@
-"""The vehicle's sun ephemeris: NREL SPA (pvlib) for the declared place and the clock's UTC.
+"""The one sun ephemeris: NREL SPA (pvlib), apparent position, interpolated between knots.
 
-Onboard twin of ``sensors.polarimeter.sun`` (which the world renders with): the vehicle computes the
-sun's direction itself, from what it knows, as a real vehicle computer would. One SPA evaluation
-costs 5–20 ms (pandas and the full series), too much for every frame of every filter variant, so
-:func:`sun_direction_enu` evaluates SPA at knots every 10 s, 64 knots a call, and interpolates
-between them (the sun moves 0.04° in 10 s; the interpolated direction is within 1e-4° of a single
-SPA call, checked in tests/onboard/test_ephemeris.py).
+Shared contract (``twin.core``): the world renders the sky with it (the polarimeter's sun stage,
+:mod:`sensors.polarimeter.sun`) and the vehicle computer computes the sun's direction with it from
+what it knows (declared place, its clock's UTC), as a real vehicle computer would.
+
+The position is pvlib's port of the NREL Solar Position Algorithm (Reda & Andreas 2004, Solar
+Energy 76(5):577, corrigendum 81(6):838; stated uncertainty ±0.0003°), called through
+:func:`pvlib.solarposition.spa_python` (optics.md §5). The *apparent* (refraction-corrected)
+position is used everywhere downstream: it is where the sun is seen from the sea surface, and the
+direction Snell refraction starts from.
+
+Angles are radians; azimuth is the compass azimuth (clockwise from North, pvlib's convention), and
+``direction_enu`` is the unit vector from the observer towards the sun in the ENU navigation frame
+(x East, y North, z Up; :mod:`twin.core.frames`):
+``(sin Z sin A, sin Z cos A, cos Z)`` for apparent zenith Z and compass azimuth A.
+
+One SPA evaluation costs 5–20 ms (pandas and the full series), too much for every frame of every
+filter variant: :class:`SunTracker` evaluates SPA at knots every 10 s, 64 knots a call, and
+interpolates (the sun moves 0.04° in 10 s; the interpolated direction is within 1e-4° of a single
+SPA call, checked in tests/onboard/test_ephemeris.py and tests/sensors/polarimeter/test_sun.py).
+
+Night: :data:`NIGHT_ELEVATION_DEG` = −0.833°, the conventional sunset/sunrise of the sun's upper
+limb (solar semi-diameter 0.2667° + standard horizon refraction 0.5667°). SPA applies refraction
+only while the sun is within that band of the horizon, so an apparent elevation below −0.833° means
+the whole disc has set. Twilight sky light is not modelled: the sky stage renders a night sky
+(:mod:`sensors.polarimeter.sky`).
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 import pvlib
 from numpy.typing import NDArray
 
-_KNOT_S = 10.0
-_BATCH = 64
-_knots: dict[tuple[int, int, int], NDArray[np.float64]] = {}
+FloatArray = NDArray[np.floating]
+
+_MAX_KNOTS = 100_000
+
+#: Apparent solar elevation (degrees) below which it is night: upper limb below the horizon.
+NIGHT_ELEVATION_DEG = -0.833
+NIGHT_ELEVATION_RAD = math.radians(NIGHT_ELEVATION_DEG)
+
+TimeLike = (
+    dt.datetime | np.datetime64 | pd.Timestamp | str | Sequence[dt.datetime] | pd.DatetimeIndex
+)
 
 
-def _check(utc: dt.datetime, latitude_deg: float, longitude_deg: float) -> pd.Timestamp:
+@dataclass(frozen=True, slots=True)
+class SunPosition:
+    """Apparent position of the sun at one instant (scalar fields) or many (arrays, shape (N,)).
+
+    Attributes:
+        utc: The instant(s), as a timezone-aware UTC ``pandas.DatetimeIndex``.
+        apparent_zenith_rad: Refraction-corrected zenith angle.
+        azimuth_rad: Compass azimuth, clockwise from North, in [0, 2π).
+        elevation_rad: Refraction-corrected elevation = π/2 − apparent zenith.
+        direction_enu: Unit vector(s) towards the sun, ENU, shape (3,) or (N, 3).
+        is_night: Apparent elevation below :data:`NIGHT_ELEVATION_DEG`.
+    """
+
+    utc: pd.DatetimeIndex
+    apparent_zenith_rad: float | FloatArray
+    azimuth_rad: float | FloatArray
+    elevation_rad: float | FloatArray
+    direction_enu: FloatArray
+    is_night: bool | NDArray[np.bool_]
+
+
+def direction_from_zenith_azimuth(
+    zenith_rad: float | FloatArray, azimuth_rad: float | FloatArray
+) -> NDArray[np.float64]:
+    """ENU unit vector(s) of zenith angle Z and compass azimuth A (clockwise from North).
+
+    ``(sin Z sin A, sin Z cos A, cos Z)``; broadcasts, output shape (..., 3).
+    """
+    z = np.asarray(zenith_rad, dtype=np.float64)
+    a = np.asarray(azimuth_rad, dtype=np.float64)
+    sz = np.sin(z)
+    return np.stack(np.broadcast_arrays(sz * np.sin(a), sz * np.cos(a), np.cos(z)), axis=-1)
+
+
+def _to_utc_index(utc: TimeLike) -> tuple[pd.DatetimeIndex, bool]:
+    """A UTC DatetimeIndex from the accepted time types, and whether the input was scalar."""
+    scalar = isinstance(utc, dt.datetime | np.datetime64 | pd.Timestamp | str)
+    try:
+        idx = pd.DatetimeIndex([utc] if scalar else utc)
+    except (TypeError, ValueError) as err:
+        raise ValueError(
+            f"utc must be a datetime, datetime64, ISO string or a sequence of them: {err}"
+        ) from err
+    if idx.hasnans:
+        raise ValueError("utc must not contain NaT")
+    # Naive times are UTC (the scenario clock is UTC); aware ones are converted.
+    idx = idx.tz_localize("UTC") if idx.tz is None else idx.tz_convert("UTC")
+    return idx, scalar
+
+
+def _check_finite(name: str, value: float, lo: float = -math.inf, hi: float = math.inf) -> float:
+    v = float(value)
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise ValueError(f"{name} must be a finite number in [{lo:g}, {hi:g}], got {value!r}")
+    return v
+
+
+def sun_position(
+    utc: TimeLike,
+    lat_deg: float,
+    lon_deg: float,
+    *,
+    altitude_m: float = 0.0,
+    pressure_pa: float = 101325.0,
+    temperature_c: float = 12.0,
+    delta_t_s: float | None = None,
+    atmos_refract_deg: float = 0.5667,
+) -> SunPosition:
+    """Apparent solar position for a place and UTC instant(s), by NREL SPA (pvlib).
+
+    Args:
+        utc: Instant(s): datetime (naive = UTC, aware = converted), numpy datetime64, ISO string,
+            pandas Timestamp/DatetimeIndex, or a sequence of these (vectorised; one SPA call).
+        lat_deg: Geodetic latitude, degrees North, in [−90, 90].
+        lon_deg: Longitude, degrees East, in [−180, 180].
+        altitude_m: Observer height above the ellipsoid (sea level = 0), in [−1000, 10000].
+        pressure_pa: Surface air pressure for the refraction correction, in (0, 2e5].
+        temperature_c: Air temperature for the refraction correction, in [−90, 60].
+        delta_t_s: TT − UT1 in seconds; None = pvlib's polynomial estimate for each date
+            (``pvlib.spa.calculate_deltat``, ≈69 s in 2024–2026; 1 s of ΔT moves the sun by ~4e-3°).
+        atmos_refract_deg: Refraction at sunrise/sunset used by SPA to decide when to refract.
+
+    Returns:
+        The :class:`SunPosition`; scalar fields for a scalar ``utc``, arrays of shape (N,) else.
+    """
+    idx, scalar = _to_utc_index(utc)
+    lat = _check_finite("lat_deg", lat_deg, -90.0, 90.0)
+    lon = _check_finite("lon_deg", lon_deg, -180.0, 180.0)
+    alt = _check_finite("altitude_m", altitude_m, -1000.0, 10000.0)
+    pressure = _check_finite("pressure_pa", pressure_pa, 0.0, 2e5)
+    if pressure <= 0:
+        raise ValueError(f"pressure_pa must be > 0, got {pressure_pa!r}")
+    temp = _check_finite("temperature_c", temperature_c, -90.0, 60.0)
+    refr = _check_finite("atmos_refract_deg", atmos_refract_deg, 0.0, 5.0)
+    if delta_t_s is not None:
+        delta_t_s = _check_finite("delta_t_s", delta_t_s, -1e4, 1e4)
+
+    df = pvlib.solarposition.spa_python(
+        idx,
+        lat,
+        lon,
+        altitude=alt,
+        pressure=pressure,
+        temperature=temp,
+        delta_t=delta_t_s,
+        atmos_refract=refr,
+        how="numpy",
+    )
+    zen = np.radians(df["apparent_zenith"].to_numpy(dtype=np.float64))
+    az = np.radians(df["azimuth"].to_numpy(dtype=np.float64)) % (2.0 * math.pi)
+    elev = np.radians(df["apparent_elevation"].to_numpy(dtype=np.float64))
+    direction = direction_from_zenith_azimuth(zen, az)
+    night = elev < NIGHT_ELEVATION_RAD
+    if scalar:
+        return SunPosition(
+            idx, float(zen[0]), float(az[0]), float(elev[0]), direction[0], bool(night[0])
+        )
+    return SunPosition(idx, zen, az, elev, direction, night)
+
+
+class SunTracker:
+    """Per-frame sun positions for one place: SPA on a grid of knots, interpolated.
+
+    One ``spa_python`` call costs ~5–20 ms (pandas and the full SPA series), too much for every
+    10 Hz frame, while the sun moves only ~0.004°/s. The tracker evaluates SPA (vectorised) on knots
+    ``knot_s`` apart, in batches of ``batch`` knots, caches them, and linearly interpolates the
+    direction vector between the two knots around each instant (then renormalises). The error of
+    linear interpolation is ≤ h²/8 · |d²s/dt²| ≤ h²Ω²/8 with Ω = 7.29e-5 rad/s the Earth's rotation:
+    6.6e-8 rad (4e-6°) for h = 10 s — far below SPA's own ±3e-4°.
+
+    Args:
+        lat_deg: Geodetic latitude, degrees North.
+        lon_deg: Longitude, degrees East.
+        knot_s: Knot spacing in seconds, in (0, 600].
+        batch: Knots computed per SPA call (≥ 2).
+        **spa_kwargs: Passed to :func:`sun_position` (altitude_m, pressure_pa, temperature_c,
+            delta_t_s, atmos_refract_deg).
+    """
+
+    def __init__(
+        self,
+        lat_deg: float,
+        lon_deg: float,
+        *,
+        knot_s: float = 10.0,
+        batch: int = 64,
+        **spa_kwargs: float | None,
+    ) -> None:
+        self.lat_deg = _check_finite("lat_deg", lat_deg, -90.0, 90.0)
+        self.lon_deg = _check_finite("lon_deg", lon_deg, -180.0, 180.0)
+        self.knot_s = _check_finite("knot_s", knot_s, 0.0, 600.0)
+        if self.knot_s <= 0:
+            raise ValueError(f"knot_s must be > 0, got {knot_s!r}")
+        if isinstance(batch, bool) or not isinstance(batch, int) or batch < 2:
+            raise ValueError(f"batch must be an integer >= 2, got {batch!r}")
+        self.batch = batch
+        self.spa_kwargs = spa_kwargs
+        self._knots: dict[int, NDArray[np.float64]] = {}
+
+    def _knot(self, k: int) -> NDArray[np.float64]:
+        if k not in self._knots:
+            if len(self._knots) > _MAX_KNOTS:  # a long campaign in one process: start afresh
+                self._knots.clear()
+            ks = np.arange(k, k + self.batch)
+            ns = (ks * self.knot_s * 1e9).astype("int64")
+            times = pd.DatetimeIndex(ns.astype("datetime64[ns]")).tz_localize("UTC")
+            pos = sun_position(times, self.lat_deg, self.lon_deg, **self.spa_kwargs)
+            for kk, d in zip(ks.tolist(), pos.direction_enu, strict=True):
+                self._knots[kk] = d
+        return self._knots[k]
+
+    def __call__(self, utc: dt.datetime | np.datetime64 | pd.Timestamp | str) -> SunPosition:
+        """The apparent sun position at one instant (interpolated between SPA knots)."""
+        idx, scalar = _to_utc_index(utc)
+        if not scalar:
+            raise ValueError("SunTracker takes one instant; use sun_position() for many")
+        t_s = idx.as_unit("ns").asi8[0] / 1e9  # pandas may store us or ns: ask for ns
+        q = t_s / self.knot_s
+        k = math.floor(q)
+        w = q - k
+        d = (1.0 - w) * self._knot(k) + w * self._knot(k + 1)
+        d /= np.linalg.norm(d)
+        zen = math.atan2(math.hypot(d[0], d[1]), d[2])
+        az = math.atan2(d[0], d[1]) % (2.0 * math.pi)
+        elev = math.pi / 2 - zen
+        return SunPosition(idx, zen, az, elev, d, elev < NIGHT_ELEVATION_RAD)
+
+
+# ---- the vehicle computer's view: a tracker per declared place --------------------------------
+
+_trackers: dict[tuple[int, int], SunTracker] = {}
+
+
+def _place(latitude_deg: float, longitude_deg: float) -> tuple[int, int]:
     if not (math.isfinite(latitude_deg) and -90.0 <= latitude_deg <= 90.0):
         raise ValueError(f"latitude_deg: {latitude_deg!r}; allowed [-90, 90]")
     if not (math.isfinite(longitude_deg) and -180.0 <= longitude_deg <= 360.0):
         raise ValueError(f"longitude_deg: {longitude_deg!r}; allowed [-180, 360]")
-    ts = pd.Timestamp(utc)
-    return ts.tz_localize("UTC") if ts.tzinfo is None else ts.tz_convert("UTC")
+    lon = (longitude_deg + 180.0) % 360.0 - 180.0
+    # Rounded to 1e-4° (11 m) for the tracker cache: the sun's direction changes by less than
+    # 1e-4° over that distance.
+    return round(latitude_deg * 1e4), round(lon * 1e4)
 
 
 def sun_zenith_azimuth(
     utc: dt.datetime, latitude_deg: float, longitude_deg: float
 ) -> tuple[float, float]:
     """Apparent zenith and compass azimuth (clockwise from North) of the sun, rad (exact SPA)."""
-    ts = _check(utc, latitude_deg, longitude_deg)
-    sp = pvlib.solarposition.spa_python(
-        pd.DatetimeIndex([ts]), latitude_deg, longitude_deg, how="numpy"
-    )
-    return math.radians(float(sp["apparent_zenith"].iloc[0])), math.radians(
-        float(sp["azimuth"].iloc[0])
-    )
-
-
-def _direction(zenith_rad: NDArray[np.float64], azimuth_rad: NDArray[np.float64]):
-    sz = np.sin(zenith_rad)
-    return np.stack([sz * np.sin(azimuth_rad), sz * np.cos(azimuth_rad), np.cos(zenith_rad)], -1)
-
-
-def _knot(k: int, lat_e6: int, lon_e6: int) -> NDArray[np.float64]:
-    key = (k, lat_e6, lon_e6)
-    if key not in _knots:
-        ks = np.arange(k, k + _BATCH)
-        times = pd.DatetimeIndex(
-            (ks * _KNOT_S * 1e9).astype("int64").astype("datetime64[ns]")
-        ).tz_localize("UTC")
-        sp = pvlib.solarposition.spa_python(times, lat_e6 * 1e-6, lon_e6 * 1e-6, how="numpy")
-        dirs = _direction(
-            np.radians(sp["apparent_zenith"].to_numpy()), np.radians(sp["azimuth"].to_numpy())
-        )
-        if len(_knots) > 100_000:  # a long campaign in one process: start afresh
-            _knots.clear()
-        for kk, d in zip(ks.tolist(), dirs, strict=True):
-            _knots[(kk, lat_e6, lon_e6)] = d
-    return _knots[key]
+    lat, lon = _place(latitude_deg, longitude_deg)
+    pos = sun_position(utc, lat * 1e-4, lon * 1e-4)
+    return float(pos.apparent_zenith_rad), float(pos.azimuth_rad)
 
 
 def sun_direction_enu(
     utc: dt.datetime, latitude_deg: float, longitude_deg: float
 ) -> NDArray[np.float64]:
-    """Unit ENU vector towards the sun (apparent position), interpolated between SPA knots.
-
-    The position is rounded to 1e-4° (11 m) for the knot cache: the sun's direction changes by
-    less than 1e-4° over that distance.
-    """
-    ts = _check(utc, latitude_deg, longitude_deg)
-    lat_e6 = round(latitude_deg * 1e4) * 100
-    lon_e6 = round(longitude_deg * 1e4) * 100
-    q = ts.as_unit("ns").value / 1e9 / _KNOT_S
-    k = math.floor(q)
-    w = q - k
-    d = (1.0 - w) * _knot(k, lat_e6, lon_e6) + w * _knot(k + 1, lat_e6, lon_e6)
-    return d / np.linalg.norm(d)
+    """Unit ENU vector towards the sun (apparent position), interpolated between SPA knots."""
+    key = _place(latitude_deg, longitude_deg)
+    tracker = _trackers.get(key)
+    if tracker is None:
+        if len(_trackers) > 1000:
+            _trackers.clear()
+        tracker = _trackers[key] = SunTracker(key[0] * 1e-4, key[1] * 1e-4)
+    return np.asarray(tracker(utc).direction_enu, dtype=np.float64)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 
@@ -61,3 +62,54 @@ def test_every_published_method_is_registered_and_unknown_names_are_refused() ->
     assert create("lig").name == "lig"
     with pytest.raises(ValueError, match="allowed"):
         create("astrolabe")
+
+
+# ---- the CompassMethod contract: one constructor, one prologue, for every method -------------
+ALL_METHODS = ("lig", "pol", "roia", "snell", "moi", "patz", "ht")
+
+
+def _calibration():
+    import sensors
+
+    return sensors.create("polarimeter", "ideal_bin4").calibration()
+
+
+@pytest.mark.parametrize("name", ALL_METHODS)
+def test_every_method_shares_the_constructor_contract(name) -> None:
+    from twin.onboard.compass.base import CompassMethod
+
+    cls = available()[name]
+    assert issubclass(cls, CompassMethod)
+    default = cls()
+    assert isinstance(default.config, cls.config_type)
+    # An override by keyword replaces that field (and only that field) of the default config.
+    field = next(f for f in dataclasses.fields(default.config) if f.type in ("float", float))
+    changed = cls(**{field.name: getattr(default.config, field.name) * 0.9})
+    assert getattr(changed.config, field.name) == pytest.approx(
+        0.9 * getattr(default.config, field.name)
+    )
+    with pytest.raises(ValueError, match="no field"):
+        cls(warp_drive=1.0)
+    with pytest.raises(ValueError, match="config"):
+        cls(config=object())
+
+
+@pytest.mark.parametrize("name", ALL_METHODS)
+def test_every_method_shares_the_frame_prologue(name) -> None:
+    cal = _calibration()
+    m = create(name)
+    raw = np.zeros((cal.height_px, cal.width_px), np.uint16)
+    ctx = CompassContext(UTC, 37.54, 122.06, sun_enu=_sun(30.0, 120.0))
+    for bad, match in (
+        (raw[:, :-2], r"raw\.shape"),
+        (raw.tolist(), "numpy"),
+        (np.full(raw.shape, np.nan, np.float32), "NaN"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            m.solve(bad, cal, ctx)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="calibration"):
+        m.solve(raw, None, ctx)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="ctx"):
+        m.solve(raw, cal, None)  # type: ignore[arg-type]
+    night = m.solve(raw, cal, CompassContext(UTC, 37.54, 122.06, sun_enu=_sun(-5.0, 120.0)))
+    assert not night.ok and night.reason.startswith("night")

@@ -17,16 +17,19 @@ usable pixels) gives ``ok=False`` with a ``reason`` — never a NaN handed on.
 
 from __future__ import annotations
 
+import abc
+import dataclasses
 import datetime as dt
 import math
 import numbers
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
+from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm, wrap_pi
 
 FloatArray = NDArray[np.float64]
@@ -213,15 +216,113 @@ def finish_fix(
     )
 
 
-@runtime_checkable
-class CompassMethod(Protocol):
-    """A compass method: ``solve(raw, calibration, context) -> CompassFix``."""
+#: Apparent solar elevation below which it is night (the upper limb below the horizon).
+NIGHT_ELEVATION_RAD = math.radians(-0.833)
 
-    name: str
+
+def check_frame(
+    raw: object, calibration: object, ctx: object, method: str
+) -> tuple[NDArray[np.generic], CameraCalibration, CompassContext]:
+    """Validate a frame's inputs; a ValueError names the argument, its value and what is allowed."""
+    if not isinstance(calibration, CameraCalibration):
+        raise ValueError(
+            f"{method}: calibration: {type(calibration).__name__}; allowed: "
+            "twin.core.calibration.CameraCalibration"
+        )
+    if not isinstance(ctx, CompassContext):
+        raise ValueError(f"{method}: ctx: {type(ctx).__name__}; allowed: a CompassContext")
+    if not isinstance(raw, np.ndarray):
+        raise ValueError(f"{method}: raw: {type(raw).__name__}; allowed: a 2-D numpy array")
+    want = (calibration.height_px, calibration.width_px)
+    if raw.shape != want:
+        raise ValueError(
+            f"{method}: raw.shape: {raw.shape}; allowed: {want} = (calibration.height_px, "
+            "calibration.width_px)"
+        )
+    if raw.dtype.kind not in "uif":
+        raise ValueError(f"{method}: raw.dtype: {raw.dtype}; allowed: an integer or float mosaic")
+    if raw.dtype.kind == "f" and not np.isfinite(raw).all():
+        raise ValueError(f"{method}: raw holds NaN or infinite values; allowed: finite values")
+    return raw, calibration, ctx
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """A checked frame and what every method starts with (the shared prologue's output).
+
+    Attributes:
+        raw: The raw mosaic, validated against the calibration.
+        calibration: The camera calibration.
+        ctx: The vehicle's knowledge at the frame's time.
+        sun_enu: The ephemeris solar vector (ENU, unit): the context's, else NREL SPA.
+        sun_elevation_rad: Its elevation.
+    """
+
+    raw: NDArray[np.generic]
+    calibration: CameraCalibration
+    ctx: CompassContext
+    sun_enu: FloatArray
+    sun_elevation_rad: float
+
+
+class CompassMethod(abc.ABC):
+    """Base of every compass method: one constructor contract, one frame prologue.
+
+    A method is ``Method(config=None, **overrides)``: its frozen config dataclass
+    (:attr:`config_type`, validated in its ``__post_init__``), with any field overridden by
+    keyword; an unknown field is a ValueError naming it. :meth:`solve` runs the shared prologue
+    (:func:`check_frame`, the ephemeris sun, "no solution: night" when the sun has set) and hands
+    the :class:`Frame` to :meth:`solve_frame`, the method's own algorithm.
+    """
+
+    name: ClassVar[str] = ""
+    config_type: ClassVar[type] = object
+
+    def __init__(self, config: Any = None, **overrides: Any) -> None:
+        ct = self.config_type
+        base = config if config is not None else ct()
+        if not isinstance(base, ct):
+            raise ValueError(
+                f"{self.name}: config: {type(base).__name__}; allowed: {ct.__name__} or None"
+            )
+        if overrides:
+            fields = {f.name for f in dataclasses.fields(base)}
+            unknown = sorted(set(overrides) - fields)
+            if unknown:
+                raise ValueError(
+                    f"{self.name}: {ct.__name__} has no field(s) {unknown}; allowed: "
+                    f"{', '.join(sorted(fields))}"
+                )
+            base = dataclasses.replace(base, **overrides)
+        self.config = base
 
     def solve(
         self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix: ...
+    ) -> CompassFix:
+        """A raw frame → a :class:`CompassFix` (or "no solution" and why)."""
+        frame = self.begin_frame(raw, calibration, ctx)
+        if isinstance(frame, CompassFix):
+            return frame
+        return self.solve_frame(frame)
+
+    def begin_frame(self, raw: object, calibration: object, ctx: object) -> Frame | CompassFix:
+        """The shared prologue: checked inputs and the ephemeris sun, or a night "no fix"."""
+        raw_c, cal, c = check_frame(raw, calibration, ctx, self.name)
+        if c.sun_enu is not None:
+            s = np.asarray(c.sun_enu, dtype=np.float64).reshape(3)
+            sun_enu = s / np.linalg.norm(s)
+        else:
+            sun_enu = sun_direction_enu(c.utc, c.latitude_deg, c.longitude_deg)
+        el = math.asin(max(-1.0, min(1.0, float(sun_enu[2]))))
+        if el < NIGHT_ELEVATION_RAD:
+            return no_fix(
+                self.name, f"night: the sun is below the horizon ({math.degrees(el):.1f}°)"
+            )
+        return Frame(raw_c, cal, c, sun_enu, el)
+
+    @abc.abstractmethod
+    def solve_frame(self, frame: Frame) -> CompassFix:
+        """The method's own algorithm on a checked frame with the sun above the horizon."""
 
 
 _REGISTRY: dict[str, type] = {}
@@ -229,6 +330,8 @@ _REGISTRY: dict[str, type] = {}
 
 def register(cls: type) -> type:
     """Class decorator: add a compass method to the registry under ``cls.name``."""
+    if not (isinstance(cls, type) and issubclass(cls, CompassMethod)):
+        raise TypeError(f"{cls!r} must subclass CompassMethod")
     name = getattr(cls, "name", None)
     if not isinstance(name, str) or not name:
         raise TypeError(f"{cls!r} needs a class attribute 'name'")

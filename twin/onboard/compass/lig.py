@@ -67,10 +67,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
-from twin.core.ephemeris import sun_direction_enu
 from twin.onboard.compass.base import (
     CompassContext,
     CompassFix,
+    CompassMethod,
+    Frame,
     finish_fix,
     no_fix,
     register,
@@ -78,41 +79,12 @@ from twin.onboard.compass.base import (
 
 FloatArray = NDArray[np.float64]
 
-_NIGHT_ELEVATION_RAD = math.radians(-0.833)  # sunset: the upper limb at the horizon
 _MAD_TO_SIGMA = 1.4826
 
 
 # ------------------------------------------------------------------------------------------------
 # Shared by LIG and POL (pol.py imports these).
 # ------------------------------------------------------------------------------------------------
-def check_raw(raw: object, calibration: CameraCalibration) -> NDArray[np.generic]:
-    """Validate a raw mosaic against the calibration; a ValueError/TypeError names the field."""
-    if not isinstance(calibration, CameraCalibration):
-        raise TypeError(
-            f"calibration: {type(calibration).__name__}; allowed: twin.core.calibration."
-            "CameraCalibration"
-        )
-    if not isinstance(raw, np.ndarray):
-        raise TypeError(f"raw: {type(raw).__name__}; allowed: a 2-D numpy array (the mosaic)")
-    want = (calibration.height_px, calibration.width_px)
-    if raw.shape != want:
-        raise ValueError(
-            f"raw.shape: {raw.shape}; allowed: {want} = (calibration.height_px, "
-            "calibration.width_px)"
-        )
-    if raw.dtype not in (np.uint8, np.uint16, np.float32, np.float64):
-        raise TypeError(f"raw.dtype: {raw.dtype}; allowed: uint8, uint16, float32, float64")
-    return raw
-
-
-def solar_vector_enu(ctx: CompassContext) -> FloatArray:
-    """The ephemeris solar vector: ``ctx.sun_enu`` when given, else computed (NREL SPA)."""
-    if ctx.sun_enu is not None:
-        s = np.asarray(ctx.sun_enu, dtype=np.float64).reshape(3)
-        return s / np.linalg.norm(s)
-    return sun_direction_enu(ctx.utc, ctx.latitude_deg, ctx.longitude_deg)
-
-
 def analysis_factor(calibration: CameraCalibration, max_width_px: int) -> int:
     """Raw pixels per analysis pixel: the smallest even m giving ≤ ``max_width_px`` columns."""
     m = 2
@@ -309,12 +281,6 @@ def smallest_eigenvector(vecs: FloatArray, weights: FloatArray | None = None) ->
     return EigenSolution(e[:, 0].copy(), lam, e, len(vecs))
 
 
-def night_or_none(ctx: CompassContext, sun_enu: FloatArray, method: str) -> CompassFix | None:
-    if sun_enu[2] < math.sin(_NIGHT_ELEVATION_RAD):
-        return no_fix(method, "night: the sun is below the horizon")
-    return None
-
-
 def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     if radius <= 0 or not mask.any():
         return mask
@@ -423,41 +389,26 @@ class FramePrologue:
     geometry: AnalysisGeometry
 
 
-def frame_prologue(
-    raw: object,
-    calibration: CameraCalibration,
-    ctx: CompassContext,
-    method: str,
-    analysis_max_width_px: int,
-) -> FramePrologue | CompassFix:
-    """Check the frame, get the ephemeris sun, and the analysis grid; a night fix if dark."""
-    checked = check_raw(raw, calibration)
-    sun_enu = solar_vector_enu(ctx)
-    night = night_or_none(ctx, sun_enu, method)
-    if night is not None:
-        return night
+def frame_prologue(frame: Frame, analysis_max_width_px: int) -> FramePrologue:
+    """After the shared prologue (:meth:`CompassMethod.begin_frame`): the analysis grid."""
+    calibration, ctx = frame.calibration, frame.ctx
     n_w = float(ctx.water_index)
     m = analysis_factor(calibration, analysis_max_width_px)
     geo = analysis_geometry(calibration, m, n_w if calibration.housing == "flat" else 1.0)
-    return FramePrologue(checked, sun_enu, n_w, geo)
+    return FramePrologue(frame.raw, frame.sun_enu, n_w, geo)
 
 
 @register
-class LigCompass:
+class LigCompass(CompassMethod):
     """Light-intensity-gradient solar tracking (Hu et al. 2024, §2, eqs. 5–15)."""
 
     name = "lig"
+    config_type = LigConfig
 
-    def __init__(self, config: LigConfig | None = None) -> None:
-        self.config = config or LigConfig()
-
-    def solve(
-        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
-        pro = frame_prologue(raw, calibration, ctx, self.name, cfg.analysis_max_width_px)
-        if isinstance(pro, CompassFix):
-            return pro
+        calibration, ctx = frame.calibration, frame.ctx
+        pro = frame_prologue(frame, cfg.analysis_max_width_px)
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
         intensity, sat = block_intensity(raw, calibration, geo)
 

@@ -64,8 +64,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
-from twin.core.ephemeris import sun_direction_enu
-from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
+from twin.onboard.compass.base import (
+    CompassFix,
+    CompassMethod,
+    Frame,
+    finish_fix,
+    no_fix,
+    register,
+)
 from twin.onboard.polarization import stokes_from_mosaic
 
 FloatArray = NDArray[np.float64]
@@ -589,13 +595,10 @@ def _intensity_side(
     return (axis if a >= b else axis + math.pi) % (2 * math.pi), contrast
 
 
-class _Liang2020:
-    """Shared ``solve``: raw mosaic → Stokes → AoP-level estimate → CompassFix."""
+class _Liang2020(CompassMethod):
+    """Shared ``solve_frame``: raw mosaic → Stokes → AoP-level estimate → CompassFix."""
 
-    name: str = ""
-
-    def __init__(self, config: Liang2020Config | None = None) -> None:
-        self.config = config or Liang2020Config()
+    config_type = Liang2020Config
 
     def estimate(
         self,
@@ -606,15 +609,10 @@ class _Liang2020:
         """:func:`estimate_axis` with this method and config."""
         return estimate_axis(self.name, aop, calibration, config=self.config, **kwargs)  # type: ignore[arg-type]
 
-    def solve(
-        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
-        sun_enu = ctx.sun_enu
-        if sun_enu is None:
-            sun_enu = sun_direction_enu(ctx.utc, ctx.latitude_deg, ctx.longitude_deg)
-        sun_enu = np.asarray(sun_enu, dtype=np.float64)
-        elev = math.asin(max(-1.0, min(1.0, float(sun_enu[2]))))
+        raw, calibration, ctx, sun_enu = frame.raw, frame.calibration, frame.ctx, frame.sun_enu
+        elev = frame.sun_elevation_rad
         if elev < cfg.min_sun_elevation_rad:
             return no_fix(self.name, f"sun {math.degrees(elev):.1f}° below the usable elevation")
         # The optical axis in the horizontal frame: the paper's methods assume it at the zenith.

@@ -47,7 +47,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
-from twin.onboard.compass.base import CompassContext, CompassFix, finish_fix, no_fix, register
+from twin.onboard.compass.base import (
+    CompassFix,
+    CompassMethod,
+    Frame,
+    finish_fix,
+    no_fix,
+    register,
+)
 from twin.onboard.compass.lig import (
     AnalysisGeometry,
     block_saturation,
@@ -137,21 +144,16 @@ def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDAr
 
 
 @register
-class PolCompass:
+class PolCompass(CompassMethod):
     """E-vector solar tracking with Snell + Fresnel compensation (LIG paper's ref. [22])."""
 
     name = "pol"
+    config_type = PolConfig
 
-    def __init__(self, config: PolConfig | None = None) -> None:
-        self.config = config or PolConfig()
-
-    def solve(
-        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
-        pro = frame_prologue(raw, calibration, ctx, self.name, cfg.analysis_max_width_px)
-        if isinstance(pro, CompassFix):
-            return pro
+        calibration, ctx = frame.calibration, frame.ctx
+        pro = frame_prologue(frame, cfg.analysis_max_width_px)
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
         pol = binned_stokes(raw, calibration, geo)
         sat = block_saturation(raw, calibration, geo)

@@ -66,31 +66,26 @@ multiple-scattering bias of optics.md §2.7; the azimuth does not).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration, StokesGrid
 from twin.onboard.compass.base import (
-    CompassContext,
     CompassFix,
+    CompassMethod,
     FloatArray,
+    Frame,
     finish_fix,
     no_fix,
     register,
 )
 from twin.onboard.compass.snell import (
-    check_raw,
     evectors_h,
     meridian_basis,
-    sun_enu_for,
     to_stokes,
 )
-
-_NIGHT_ELEVATION_RAD = math.radians(-0.833)
 
 
 @dataclass(frozen=True)
@@ -200,28 +195,17 @@ def p_scattered(a_s: float, a_p: FloatArray, dphi: FloatArray) -> FloatArray:
 
 
 @register
-class RoiaMethod:
+class RoiaMethod(CompassMethod):
     """ROI-A: attitude-adaptive zenith region, Fresnel to air, superposition, E-vector sun."""
 
     name = "roia"
 
-    def __init__(self, config: RoiaConfig | None = None, **overrides: object) -> None:
-        base = config if config is not None else RoiaConfig()
-        if overrides:
-            base = dataclasses.replace(base, **overrides)  # type: ignore[arg-type]
-        self.config = base
+    config_type = RoiaConfig
 
-    def solve(
-        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
-        raw = check_raw(raw, calibration, self.name)
-        if not isinstance(ctx, CompassContext):
-            raise ValueError(f"{self.name}: ctx must be a CompassContext")
-        sun_enu = sun_enu_for(ctx)
-        el_sun = math.asin(max(-1.0, min(1.0, float(sun_enu[2]))))
-        if el_sun < _NIGHT_ELEVATION_RAD:
-            return no_fix(self.name, f"night (sun elevation {math.degrees(el_sun):.1f}°)")
+        raw, calibration, ctx, sun_enu = frame.raw, frame.calibration, frame.ctx, frame.sun_enu
+        el_sun = frame.sun_elevation_rad
         # ---- zenith region (eqs. 4–8) --------------------------------------------------------
         radius = (
             math.radians(cfg.zenith_radius_deg)

@@ -92,42 +92,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration, StokesGrid
-from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import (
-    CompassContext,
     CompassFix,
+    CompassMethod,
     FloatArray,
+    Frame,
     finish_fix,
     no_fix,
     register,
 )
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
-_NIGHT_ELEVATION_RAD = math.radians(-0.833)
-
 
 # ---- helpers shared with roia.py ---------------------------------------------------------------
-def check_raw(raw: object, calibration: CameraCalibration, method: str) -> NDArray[np.generic]:
-    """Validate a raw mosaic against the calibration; a clear ValueError otherwise."""
-    if not isinstance(calibration, CameraCalibration):
-        raise ValueError(
-            f"{method}: calibration must be a CameraCalibration, got {type(calibration).__name__}"
-        )
-    if not isinstance(raw, np.ndarray):
-        raise ValueError(f"{method}: raw must be a numpy array, got {type(raw).__name__}")
-    if raw.ndim != 2 or raw.shape != (calibration.height_px, calibration.width_px):
-        raise ValueError(
-            f"{method}: raw.shape = {raw.shape}; allowed: "
-            f"({calibration.height_px}, {calibration.width_px}) as the calibration states"
-        )
-    if raw.dtype.kind not in "uif":
-        raise ValueError(f"{method}: raw.dtype = {raw.dtype}; allowed: an integer or float mosaic")
-    if raw.dtype.kind == "f" and not np.isfinite(raw).all():
-        raise ValueError(f"{method}: raw holds NaN or infinite values")
-    return raw
-
-
 def to_stokes(
     raw: NDArray[np.generic], calibration: CameraCalibration, grid: StokesGrid = "interpolate"
 ) -> PolarizationImage:
@@ -142,14 +120,6 @@ def to_stokes(
         black_level_dn=calibration.black_level_dn,
         saturation_dn=calibration.saturation_dn,
     )
-
-
-def sun_enu_for(ctx: CompassContext) -> FloatArray:
-    """Ephemeris solar vector (ENU, unit): the context's, else NREL SPA for its time and place."""
-    if ctx.sun_enu is not None:
-        s = np.asarray(ctx.sun_enu, dtype=np.float64).reshape(3)
-        return s / np.linalg.norm(s)
-    return sun_direction_enu(ctx.utc, ctx.latitude_deg, ctx.longitude_deg)
 
 
 def meridian_basis(d: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -556,16 +526,12 @@ def robust_sinusoid(phi: FloatArray, y: FloatArray, floor: float) -> tuple[Float
 
 
 @register
-class SnellWindowMethod:
+class SnellWindowMethod(CompassMethod):
     """Snell-window attitude (roll, pitch from the window centre) and Hough solar-meridian yaw."""
 
     name = "snell"
 
-    def __init__(self, config: SnellConfig | None = None, **overrides: object) -> None:
-        base = config if config is not None else SnellConfig()
-        if overrides:
-            base = dataclasses.replace(base, **overrides)  # type: ignore[arg-type]
-        self.config = base
+    config_type = SnellConfig
 
     # ---- step 0: the working frame --------------------------------------------------------------
     def working_frame(
@@ -866,17 +832,10 @@ class SnellWindowMethod:
         return m, math.sqrt(max(float(c_0), 0.0)) / 2.0 if math.isfinite(c_0) else math.inf
 
     # ---- the whole method ----------------------------------------------------------------------
-    def solve(
-        self, raw: NDArray[np.generic], calibration: CameraCalibration, ctx: CompassContext
-    ) -> CompassFix:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
-        raw = check_raw(raw, calibration, self.name)
-        if not isinstance(ctx, CompassContext):
-            raise ValueError(f"{self.name}: ctx must be a CompassContext")
-        sun_enu = sun_enu_for(ctx)
-        el = math.asin(max(-1.0, min(1.0, float(sun_enu[2]))))
-        if el < _NIGHT_ELEVATION_RAD:
-            return no_fix(self.name, f"night (sun elevation {math.degrees(el):.1f}°)")
+        raw, calibration, ctx, sun_enu = frame.raw, frame.calibration, frame.ctx, frame.sun_enu
+        el = frame.sun_elevation_rad
         if el > math.radians(cfg.max_sun_elevation_deg):
             return no_fix(self.name, "sun near the zenith: no solar meridian")
         raw_w, cal_w, binning = self.working_frame(raw, calibration)
