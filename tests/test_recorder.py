@@ -557,3 +557,16 @@ def test_tank_scene(tmp_path: Path) -> None:
     rb = chunk.to_record_batch()
     assert rb.column("Boxes3D:centers").to_pylist()[0] == [[0.0, 0.0, -2.0]]
     assert rb.column("Boxes3D:half_sizes").to_pylist()[0] == [[6.0, 3.0, 2.0]]
+
+
+def test_the_run_blueprint_has_a_tab_per_filter_variant(tmp_path: Path) -> None:
+    with Recorder(tmp_path / "v.rrd", recording_id="v", start_utc=START, variants=("ins", "lig")):
+        pass
+    views = {(cls, origin) for cls, _, origin in _views(tmp_path / "v.rrd")}
+    for v in ("ins", "lig"):
+        for series in ("heading_error_deg", "attitude_error_deg", "position_error_m"):
+            assert ("TimeSeries", f"/nav/{v}/{series}") in views
+        assert ("TimeSeries", f"/nav/{v}/nees_attitude") in views
+    # Compass fixes are scored per fix for a compass variant only.
+    assert ("TimeSeries", "/nav/lig/compass_fix_error_deg") in views
+    assert ("TimeSeries", "/nav/ins/compass_fix_error_deg") not in views

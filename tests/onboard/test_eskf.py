@@ -369,6 +369,7 @@ def test_solar_aiding_bounds_heading_with_the_seed_imu() -> None:
     assert int(r["sun_rejections"]) <= 10  # ≈ 0.1 % of 3000 at the 0.999 gate (measured 5)
 
 
+@pytest.mark.slow  # statistics over seeds (30 s); single-seed NEES checks stay in the default suite
 def test_imu_tuned_filter_is_consistent_over_seeds() -> None:
     """Monte Carlo NEES with the seed IMU: within two-sided chi-square bounds.
 

@@ -319,6 +319,7 @@ def gm_part(adev: np.ndarray, taus: np.ndarray) -> np.ndarray:
     return np.sqrt(adev**2 - n**2 / taus)
 
 
+@pytest.mark.slow  # an Allan-deviation floor from a long record (statistical)
 def test_bias_instability_floor_short_correlation_time(world, collect) -> None:
     """Fast: τ_c shortened to 3 s (the GM Allan curve is scale-free in τ/τ_c)."""
     measured, expected, floor, taus = _allan_floor_check(

@@ -128,6 +128,7 @@ def run_scenario(
         out / "recording.rrd",
         recording_id=f"{scenario.name}-seed{seed_used}",
         start_utc=scenario.start_utc,
+        variants=tuple(world.navigators),
     )
     want_camera = scenario.recording.camera if camera is None else camera
     cam: ChaseCamera | None = None

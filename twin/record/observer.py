@@ -114,6 +114,14 @@ class RunRecorder:
         rec = self.rec
         for name, event in result.events:
             _log_compass_event(rec, name, event)
+            fs = self.scorer.fixes.get(name)
+            if fs is not None and fs.t and fs.t[-1] == event.t:
+                rec.log_scalars(
+                    f"/nav/{name}/compass_fix_error_deg",
+                    event.t,
+                    np.array([fs.heading_err[-1], fs.sun_err[-1]]),
+                    names=["heading", "sun vector"],
+                )
         for reading, truth in zip(result.readings, result.truth, strict=True):
             rec.log_reading(reading)
             if (

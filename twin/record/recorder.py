@@ -95,14 +95,19 @@ _TRUTH_WIDTH = 16
 FloatArray = NDArray[np.float64]
 
 
-def default_blueprint() -> rrb.Blueprint:
+def default_blueprint(variants: Sequence[str] = ()) -> rrb.Blueprint:
     """The layout a recording opens with.
 
     Left: the 3D world (vehicle, path travelled, mission, surface/seabed/tank) above the chase
-    camera and the text log. Right: a 2x3 grid of time series (attitude, heading, depth, speed,
-    IMU, control). The 3D view shows everything logged up to the time cursor, so ``/world/path``
-    (one segment per row) accumulates into the track; the vehicle's transform is always taken at
-    the cursor.
+    camera and the text log. Right: tabs: "Vehicle", a grid of time series (attitude, heading,
+    depth, speed, IMU, control, every filter's heading and error), then one tab per filter variant
+    with its heading error ±3σ, roll/pitch error, position error, attitude NEES and (for a compass
+    variant) each fix's error against truth. The 3D view shows everything logged up to the time
+    cursor, so ``/world/path`` (one segment per row) accumulates into the track; the vehicle's
+    transform is always taken at the cursor.
+
+    Args:
+        variants: The run's filter variants (``[navigation] variants``), one tab each.
 
     Returns:
         The blueprint, to pass as ``default_blueprint`` when saving.
@@ -135,7 +140,36 @@ def default_blueprint() -> rrb.Blueprint:
             origin="/nav", contents=["/nav/*/heading_error_deg"], name="Heading error ±3σ (deg)"
         ),
         grid_columns=2,
+        name="Vehicle",
     )
+    per_variant = [
+        rrb.Grid(
+            rrb.TimeSeriesView(
+                origin=f"/nav/{v}/heading_error_deg", name=f"{v}: heading error ±3σ (deg)"
+            ),
+            rrb.TimeSeriesView(
+                origin=f"/nav/{v}/attitude_error_deg", name=f"{v}: roll/pitch error (deg)"
+            ),
+            rrb.TimeSeriesView(
+                origin=f"/nav/{v}/position_error_m", name=f"{v}: position error (m)"
+            ),
+            rrb.TimeSeriesView(origin=f"/nav/{v}/nees_attitude", name=f"{v}: attitude NEES"),
+            *(
+                (
+                    rrb.TimeSeriesView(
+                        origin=f"/nav/{v}/compass_fix_error_deg",
+                        name=f"{v}: compass fix error vs truth (deg)",
+                    ),
+                )
+                if v != "ins"
+                else ()
+            ),
+            grid_columns=2,
+            name=f"Filter {v}",
+        )
+        for v in variants
+    ]
+    right = rrb.Tabs(series, *per_variant) if per_variant else series
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
@@ -151,7 +185,7 @@ def default_blueprint() -> rrb.Blueprint:
                 ),
                 row_shares=[0.65, 0.35],
             ),
-            series,
+            right,
             column_shares=[0.55, 0.45],
         ),
         rrb.TimePanel(timeline=SIM_TIME),
@@ -246,6 +280,7 @@ class Recorder:
         start_utc: dt.datetime,
         flush_every_s: float = 5.0,
         blueprint: rrb.Blueprint | None = None,
+        variants: Sequence[str] = (),
         path_period_s: float = 0.5,
         jpeg_quality: int | None = 80,
     ) -> None:
@@ -274,7 +309,8 @@ class Recorder:
         )
         self._rec.set_log_time_enabled(False)
         self._rec.save(
-            self.path, default_blueprint=blueprint if blueprint is not None else default_blueprint()
+            self.path,
+            default_blueprint=blueprint if blueprint is not None else default_blueprint(variants),
         )
 
         self._truth: list[tuple[float, ...]] = []

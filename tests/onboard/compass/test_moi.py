@@ -106,7 +106,14 @@ def _noisy(aop, xi, rng, crosstalk: bool) -> np.ndarray:
 
 @pytest.mark.parametrize(
     ("elev_deg", "crosstalk", "trials"),
-    [(0.0, False, 20), (25.0, False, 20), (50.0, False, 20), (30.0, True, 10)],
+    [
+        # Statistics over many noisy frames: the full sweep is slow; 25 deg and the crosstalk
+        # case stay in the default suite.
+        pytest.param(0.0, False, 20, marks=pytest.mark.slow),
+        (25.0, False, 20),
+        pytest.param(50.0, False, 20, marks=pytest.mark.slow),
+        (30.0, True, 10),
+    ],
 )
 def test_noise_robustness_order(cal, elev_deg: float, crosstalk: bool, trials: int) -> None:
     """Figs. 9 and 11 at reduced scale: MOI better than HT better than PATZ; MOI max < 0.011°."""
