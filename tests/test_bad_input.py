@@ -22,6 +22,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 import scenarios
@@ -104,6 +105,10 @@ BAD = [
      "2261-12-31"),
     ("north pole", _set("place.latitude_deg", 90.0), "place.latitude_deg", "(-90, 90)"),
     ("south pole", _set("place.latitude_deg", -90.0), "place.latitude_deg", "(-90, 90)"),
+    ("imu faster than the physics", _set("sensors.imu_overrides.rate_hz", 1e5),
+     "sensors.imu_overrides", "allowed (0, 100] Hz"),
+    ("camera delay longer than the run", _set("sensors.polarimeter_overrides.delay_s", 1e9),
+     "sensors.polarimeter_overrides", "no reading would arrive"),
     ("compass faster than the camera", _set("navigation.compass_rate_hz", 5.0),
      "navigation.compass_rate_hz", "allowed (0, 1]"),
 ]  # fmt: skip
@@ -209,3 +214,20 @@ def test_ctrl_c_during_start_up_exits_130_without_a_traceback(tmp_path: Path) ->
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert "interrupted" in err
+
+
+def test_a_run_at_night_says_so_and_degrades_gracefully(tmp_path: Path) -> None:
+    # A sun below the horizon is a documented graceful behaviour, not an error: the run says so
+    # before flying, every frame is "no solution: night", and the compass variants run on.
+    sc = scenarios.load("default")
+    night = dataclasses.replace(
+        sc, start_utc=sc.start_utc.replace(hour=14), duration_s=5.0
+    )  # 22:00 local at Weihai
+    notes: list[str] = []
+    m = run_scenario(night, tmp_path, camera=False, on_message=notes.append)
+    assert any("below the horizon" in n for n in notes)
+    assert m["complete"] and "below the horizon" in m["notes"][0]
+    for v in ("pol", "lig"):
+        comp = m["navigation"]["variants"][v]["compass"]
+        assert comp["fixes"] == 0 and comp["frames"] > 0
+        assert np.isfinite(m["navigation"]["variants"][v]["heading_rmse_deg"])

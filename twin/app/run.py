@@ -16,7 +16,9 @@ the recording fails, metrics.json says so (``"recording_error"``) and the error 
 
 from __future__ import annotations
 
+import datetime as dt
 import json
+import math
 import os
 import sys
 import time
@@ -29,6 +31,7 @@ import numpy as np
 
 from scenarios.schema import Scenario
 from twin.app.simulation import Simulation, build_simulation
+from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
 from twin.record.recorder import Recorder
 from twin.scoring.mission import format_summary, summarize
@@ -130,6 +133,9 @@ def run_scenario(
         start_utc=scenario.start_utc,
         variants=tuple(world.navigators),
     )
+    notes = _notes(scenario)
+    for note in notes:
+        say(f"note: {note}")
     want_camera = scenario.recording.camera if camera is None else camera
     cam: ChaseCamera | None = None
     if want_camera:
@@ -179,6 +185,7 @@ def run_scenario(
             "status": status_text,
             **({"error": error} if error else {}),
             **({"recording_error": recording_error} if recording_error else {}),
+            **({"notes": notes} if notes else {}),
             **summarize(world, scorer, wall),
         }
         _write_json_atomic(metrics_path, metrics)
@@ -187,6 +194,31 @@ def run_scenario(
                 f"closing the recording {out / 'recording.rrd'} failed: {recording_error}"
             )
     return metrics
+
+
+def _notes(scenario: Scenario) -> list[str]:
+    """Conditions a user should know before reading the results (documented graceful behaviour).
+
+    A sun below the horizon is not an error: the sky is dark, the compass methods answer "no
+    solution: night" for every frame and the compass variants run as INS-only filters. The run
+    says so up front, and metrics.json keeps the note.
+    """
+    out: list[str] = []
+    compass = [v for v in scenario.navigation.variants if v != "ins"]
+    if compass and scenario.sensors.polarimeter is not None:
+        p = scenario.place
+        end = scenario.start_utc + dt.timedelta(seconds=scenario.duration_s)
+        elevations = [
+            math.degrees(sun_position(t, p.latitude_deg, p.longitude_deg).elevation_rad)
+            for t in (scenario.start_utc, end)
+        ]
+        if max(elevations) < NIGHT_ELEVATION_DEG:
+            out.append(
+                f"the sun is below the horizon for the whole run (elevation "
+                f"{elevations[0]:.1f} to {elevations[1]:.1f} deg): the compass variants "
+                f"{compass} will have no fixes ('night') and run as INS-only filters"
+            )
+    return out
 
 
 def _loop(sim: Simulation, scorer: RunScorer, recorder: RunRecorder, bar) -> str:

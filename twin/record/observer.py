@@ -8,6 +8,8 @@ every filter variant's errors at the truth rate (from the scorer), and the chase
 
 from __future__ import annotations
 
+import os
+import sys
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -49,6 +51,15 @@ class ChaseCamera:
         # The offscreen buffer must be at least the image size.
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        if (
+            sys.platform.startswith("linux")
+            and not os.environ.get("MUJOCO_GL")
+            and not os.environ.get("DISPLAY")
+        ):
+            # MuJoCo would try GLFW, which needs a display: say how to render headless instead
+            # of letting GLFW print its warnings.
+            self.reason = "no display and MUJOCO_GL unset; MUJOCO_GL=egl renders headless"
+            return
         try:
             self._renderer = mujoco.Renderer(model, height=height, width=width)
             self.available = True

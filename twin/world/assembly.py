@@ -146,6 +146,23 @@ def check_sensors(scenario: Scenario) -> list[str]:
             built[kind] = build()
         except ValueError as exc:
             problems.append(str(exc))
+    # The suite samples on the physics clock: a sensor faster than the physics would silently
+    # sample at the physics rate while its noise model assumed its own (a wrong number).
+    physics_hz = 1.0 / PlantConfig().timestep_s
+    for kind, sensor in built.items():
+        field = (
+            f"sensors.{kind}_overrides" if getattr(s, f"{kind}_overrides") else f"sensors.{kind}"
+        )
+        if sensor.rate_hz > physics_hz + 1e-9:
+            problems.append(
+                f"{field}: rate_hz = {sensor.rate_hz:g} is above the physics rate; allowed "
+                f"(0, {physics_hz:g}] Hz"
+            )
+        if sensor.delay_s >= scenario.duration_s:
+            problems.append(
+                f"{field}: delay_s = {sensor.delay_s:g} s: no reading would arrive before the run "
+                f"ends; allowed [0, {scenario.duration_s:g}) s (duration_s)"
+            )
     nav = scenario.navigation
     cam = built.get("polarimeter")
     compass = [v for v in nav.variants if v != "ins"]
