@@ -215,7 +215,7 @@ def test_all_features_file() -> None:
     assert dict(s.sensors.imu_overrides) == {
         "gyro_turn_on_bias": 1.0e-4,
         "accel_noise_density": (1.0e-3, 2, 3.5e-3),
-        "rate_hz": 200,
+        "rate_hz": 50,
     }
     assert isinstance(dict(s.sensors.imu_overrides)["rate_hz"], int)
     assert s.autopilot.attitude_source == "estimate"
