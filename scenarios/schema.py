@@ -3,7 +3,7 @@
 Every value keeps the name and unit it has in the TOML file (degrees, metres, seconds, compass
 headings clockwise from North, positions as ``(East, North)``), so a reader can go from a file to a
 field without a conversion table. Converting to radians and ENU yaw is the consumer's job (see
-:mod:`twin.frames`), done once where the value is used.
+:mod:`twin.core.frames`), done once where the value is used.
 
 The dataclasses do no validation of their own: :mod:`scenarios.loader` checks a file completely,
 collecting every problem, before it builds them. Build scenarios in code through
@@ -167,7 +167,7 @@ class Initial:
     """The vehicle's state at t = 0.
 
     Angles are degrees; heading is compass, clockwise from North; roll and pitch follow
-    :mod:`twin.frames` (pitch nose up positive, roll starboard down positive).
+    :mod:`twin.core.frames` (pitch nose up positive, roll starboard down positive).
     """
 
     position_m: Vec2 = (0.0, 0.0)
