@@ -127,34 +127,44 @@ def run_scenario(
     }
     _write_json_atomic(metrics_path, base)
 
-    rec = Recorder(
-        out / "recording.rrd",
-        recording_id=f"{scenario.name}-seed{seed_used}",
-        start_utc=scenario.start_utc,
-        variants=tuple(world.navigators),
-    )
-    notes = _notes(scenario)
-    for note in notes:
-        say(f"note: {note}")
-    want_camera = scenario.recording.camera if camera is None else camera
+    # From here on, whatever stops the run (Ctrl-C during start-up included) rewrites
+    # metrics.json with the reason and closes whatever was opened.
+    rec: Recorder | None = None
     cam: ChaseCamera | None = None
-    if want_camera:
-        cam = ChaseCamera(
-            world.plant.model, scenario.recording.camera_width, scenario.recording.camera_height
-        )
-        if not cam.available:
-            say(f"note: no GL context for the chase camera ({cam.reason}); continuing without it")
-            cam = None
-
     scorer = RunScorer(world)
-    recorder = RunRecorder(rec, world, scorer, cam)
-    world.observers[:] = [scorer, recorder]  # the recorder logs what the scorer just computed
-    status_text = "running"
+    notes: list[str] = []
+    status_text = "starting"
     error: str | None = None
     recording_error: str | None = None
     wall0 = time.perf_counter()
-    bar = _progress(scenario.duration_s, progress)
+    bar = None
     try:
+        rec = Recorder(
+            out / "recording.rrd",
+            recording_id=f"{scenario.name}-seed{seed_used}",
+            start_utc=scenario.start_utc,
+            variants=tuple(world.navigators),
+        )
+        notes = _notes(scenario)
+        for note in notes:
+            say(f"note: {note}")
+        want_camera = scenario.recording.camera if camera is None else camera
+        if want_camera:
+            cam = ChaseCamera(
+                world.plant.model,
+                scenario.recording.camera_width,
+                scenario.recording.camera_height,
+            )
+            if not cam.available:
+                say(
+                    f"note: no GL context for the chase camera ({cam.reason}); "
+                    "continuing without it"
+                )
+                cam = None
+        recorder = RunRecorder(rec, world, scorer, cam)
+        world.observers[:] = [scorer, recorder]  # the recorder logs what the scorer computed
+        status_text = "running"
+        bar = _progress(scenario.duration_s, progress)
         log_scene(rec, world)
         status_text = _loop(world, scorer, recorder, bar)
     except KeyboardInterrupt:
@@ -170,15 +180,17 @@ def run_scenario(
         if cam is not None:
             cam.close()
         world.observers.clear()
-        try:
-            rec.log_text(
-                world.plant.t, f"run ended: {status_text}" + (f" ({error})" if error else "")
-            )
-            rec.close()
-        except Exception as exc:
-            recording_error = f"{type(exc).__name__}: {exc}"
-            if status_text in ("mission_complete", "duration_reached", "running"):
-                status_text, error = "error", f"closing the recording failed: {recording_error}"
+        if rec is not None:
+            try:
+                rec.log_text(
+                    world.plant.t, f"run ended: {status_text}" + (f" ({error})" if error else "")
+                )
+                rec.close()
+            except Exception as exc:
+                recording_error = f"{type(exc).__name__}: {exc}"
+                if status_text in ("mission_complete", "duration_reached", "running"):
+                    status_text = "error"
+                    error = f"closing the recording failed: {recording_error}"
         metrics = {
             **base,
             "complete": status_text in ("mission_complete", "duration_reached"),

@@ -146,8 +146,16 @@ def sun_position(
         raise ValueError(f"pressure_pa must be > 0, got {pressure_pa!r}")
     temp = _check_finite("temperature_c", temperature_c, -90.0, 60.0)
     refr = _check_finite("atmos_refract_deg", atmos_refract_deg, 0.0, 5.0)
+    delta_t: float | NDArray[np.float64]
     if delta_t_s is not None:
-        delta_t_s = _check_finite("delta_t_s", delta_t_s, -1e4, 1e4)
+        delta_t = _check_finite("delta_t_s", delta_t_s, -1e4, 1e4)
+    else:
+        # pvlib's own estimate, on numpy arrays: spa_python would compute the same polynomial on
+        # the pandas index, element by element through pandas arithmetic, which costs ~75 ms a
+        # call (a fifth of a sea trial's wall time). Same formula, same numbers.
+        delta_t = pvlib.spa.calculate_deltat(
+            idx.year.to_numpy(dtype=np.float64), idx.month.to_numpy(dtype=np.float64)
+        )
 
     df = pvlib.solarposition.spa_python(
         idx,
@@ -156,7 +164,7 @@ def sun_position(
         altitude=alt,
         pressure=pressure,
         temperature=temp,
-        delta_t=delta_t_s,
+        delta_t=delta_t,
         atmos_refract=refr,
         how="numpy",
     )
