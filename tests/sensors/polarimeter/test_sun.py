@@ -129,3 +129,29 @@ def test_validation(kwargs: dict, field: str) -> None:
     args.update(kwargs)
     with pytest.raises(ValueError, match=field):
         sun_position(args.pop("utc"), args.pop("lat_deg"), args.pop("lon_deg"), **args)
+
+
+def test_the_numpy_delta_t_path_gives_pvlibs_own_numbers() -> None:
+    # sun_position computes pvlib's ΔT estimate on numpy arrays (fast) instead of letting
+    # spa_python compute it on the pandas index: the positions must be pvlib's to the last bit.
+    import pandas as pd
+    import pvlib
+
+    idx = pd.date_range("2021-09-03T02:00Z", periods=64, freq="10s")
+    ours = sun_position(idx, 37.54, 122.06)
+    ref = pvlib.solarposition.spa_python(
+        idx,
+        37.54,
+        122.06,
+        pressure=101325.0,
+        temperature=12.0,
+        delta_t=None,
+        atmos_refract=0.5667,
+        how="numpy",
+    )
+    np.testing.assert_array_equal(
+        np.radians(ref["azimuth"].to_numpy()) % (2 * np.pi), ours.azimuth_rad
+    )
+    np.testing.assert_array_equal(
+        np.radians(ref["apparent_zenith"].to_numpy()), ours.apparent_zenith_rad
+    )
