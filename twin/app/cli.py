@@ -141,6 +141,56 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_campaign_validate(args: argparse.Namespace) -> int:
+    from twin.campaign.spec import CampaignError, load_campaign
+
+    status = 0
+    for f in args.specs:
+        try:
+            spec = load_campaign(f)
+        except CampaignError as exc:
+            print(f"{f}: invalid\n{exc}", file=sys.stderr)
+            status = 1
+        else:
+            axes = ", ".join(f"{a.name} ({len(a.values)})" for a in spec.axes) or "no sweep"
+            print(
+                f"{f}: ok ({spec.name}: {len(spec.runs)} runs = {spec.combine} of {axes} "
+                f"x {len(spec.seeds)} seeds; base {spec.base.name})"
+            )
+    return status
+
+
+def _cmd_campaign_run(args: argparse.Namespace) -> int:
+    from twin.app.run import prepare_output
+    from twin.campaign.runner import run_campaign
+    from twin.campaign.spec import CampaignError, load_campaign
+
+    if args.workers < 1:
+        print(f"error: --workers {args.workers}: must be an integer >= 1", file=sys.stderr)
+        return 2
+    try:
+        spec = load_campaign(args.spec)
+    except CampaignError as exc:
+        print(f"error: campaign {args.spec} is invalid\n{exc}", file=sys.stderr)
+        return 2
+    try:
+        out = prepare_output(args.out)
+    except OSError as exc:
+        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    try:
+        counts = run_campaign(spec, out, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        return 130
+    total = sum(counts.values())
+    print(
+        f"campaign {spec.name}: {total} runs this time ("
+        + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+        + f"); results: {out / 'results.parquet'}"
+    )
+    return 0 if counts.get("ok", 0) == total else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="auv-twin",
@@ -178,6 +228,18 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="check scenario files without running them")
     v.add_argument("files", nargs="+")
     v.set_defaults(func=_cmd_validate)
+
+    c = sub.add_parser("campaign", help="Monte Carlo campaigns: many seeded trials as a table")
+    csub = c.add_subparsers(dest="campaign_command", required=True)
+    cv = csub.add_parser("validate", help="check campaign specs (every run's scenario included)")
+    cv.add_argument("specs", nargs="+")
+    cv.set_defaults(func=_cmd_campaign_validate)
+    cr = csub.add_parser("run", help="run a campaign (resumes: finished runs are skipped)")
+    cr.add_argument("spec", help="a campaign .toml file")
+    cr.add_argument("--out", required=True, help="results folder")
+    cr.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    cr.add_argument("--quiet", action="store_true", help="no progress bar")
+    cr.set_defaults(func=_cmd_campaign_run)
     return p
 
 

@@ -96,6 +96,8 @@ def run_scenario(
     progress: bool = False,
     camera: bool | None = None,
     on_message: Callable[[str], None] | None = None,
+    record: bool = True,
+    on_scored: Callable[[RunScorer], None] | None = None,
 ) -> dict[str, Any]:
     """Run one sea trial and write its recording and metrics.
 
@@ -106,6 +108,8 @@ def run_scenario(
         progress: Show a progress bar on stderr.
         camera: Render the chase camera; ``None`` follows the scenario's recording settings.
         on_message: Called with one-line notices (e.g. "no GL context"); default: stderr.
+        record: Write the Rerun recording (False: metrics only, as campaigns run by default).
+        on_scored: Called with the run's scorer when the run ends (per-run time series).
 
     Returns:
         The metrics dict (also written to ``out_dir/metrics.json``).
@@ -120,7 +124,7 @@ def run_scenario(
         "seed": seed_used,
         "complete": False,
         "status": "running",
-        "recording": "recording.rrd",
+        "recording": "recording.rrd" if record else None,
         "versions": _versions(),
         # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
         "scenario_config": scenario.to_dict(),
@@ -139,16 +143,17 @@ def run_scenario(
     wall0 = time.perf_counter()
     bar = None
     try:
-        rec = Recorder(
-            out / "recording.rrd",
-            recording_id=f"{scenario.name}-seed{seed_used}",
-            start_utc=scenario.start_utc,
-            variants=tuple(world.navigators),
-        )
+        if record:
+            rec = Recorder(
+                out / "recording.rrd",
+                recording_id=f"{scenario.name}-seed{seed_used}",
+                start_utc=scenario.start_utc,
+                variants=tuple(world.navigators),
+            )
         notes = _notes(scenario)
         for note in notes:
             say(f"note: {note}")
-        want_camera = scenario.recording.camera if camera is None else camera
+        want_camera = record and (scenario.recording.camera if camera is None else camera)
         if want_camera:
             cam = ChaseCamera(
                 world.plant.model,
@@ -161,11 +166,13 @@ def run_scenario(
                     "continuing without it"
                 )
                 cam = None
-        recorder = RunRecorder(rec, world, scorer, cam)
-        world.observers[:] = [scorer, recorder]  # the recorder logs what the scorer computed
+        recorder = RunRecorder(rec, world, scorer, cam) if rec is not None else None
+        # The recorder logs what the scorer just computed: the scorer goes first.
+        world.observers[:] = [scorer] + ([recorder] if recorder is not None else [])
         status_text = "running"
         bar = _progress(scenario.duration_s, progress)
-        log_scene(rec, world)
+        if rec is not None:
+            log_scene(rec, world)
         status_text = _loop(world, scorer, recorder, bar)
     except KeyboardInterrupt:
         status_text, error = "interrupted", "KeyboardInterrupt"
@@ -201,6 +208,8 @@ def run_scenario(
             **summarize(world, scorer, wall),
         }
         _write_json_atomic(metrics_path, metrics)
+        if on_scored is not None:
+            on_scored(scorer)
         if recording_error is not None and sys.exc_info()[0] is None:
             raise OSError(
                 f"closing the recording {out / 'recording.rrd'} failed: {recording_error}"
@@ -233,7 +242,7 @@ def _notes(scenario: Scenario) -> list[str]:
     return out
 
 
-def _loop(sim: Simulation, scorer: RunScorer, recorder: RunRecorder, bar) -> str:
+def _loop(sim: Simulation, scorer: RunScorer, recorder: RunRecorder | None, bar) -> str:
     dt = sim.physics_dt
     n_steps = round(sim.scenario.duration_s / dt)
     every_ap = sim.autopilot_every
@@ -247,11 +256,13 @@ def _loop(sim: Simulation, scorer: RunScorer, recorder: RunRecorder, bar) -> str
             cmd = sim.control()
             if sim.status.leg != prev_leg:
                 scorer.leg_started_at = t
-            recorder.log_control(t, cmd, sim.setpoint)
+            if recorder is not None:
+                recorder.log_control(t, cmd, sim.setpoint)
             if sim.status.complete and complete_at is None:
                 complete_at = t
                 scorer.active = False
-                recorder.rec.log_text(t, "mission complete")
+                if recorder is not None:
+                    recorder.rec.log_text(t, "mission complete")
         assert cmd is not None
         sim.step(cmd)
         if bar is not None and (k + 1) % every_bar == 0:

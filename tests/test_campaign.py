@@ -1,0 +1,176 @@
+"""Campaigns (groundwork of issue 10): specs, the local pool, Parquet rows, resume, isolation."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from twin.app.cli import main
+from twin.campaign.results import load_campaign_results
+from twin.campaign.runner import _job, execute_run, run_campaign
+from twin.campaign.spec import CampaignError, RunSpec, load_campaign, parse_campaign, set_path
+
+SMALL = """
+name = "small"
+base = "tank"
+seeds = 2
+metrics = ["depth_error_rms_m", "distance_travelled_m", "final.*", "sim_time_s"]
+[set]
+duration_s = 2.0
+[[sweep]]
+path = ["initial.depth_m", "mission.legs[*].depth_m"]
+values = [1.0, 2.0]
+"""
+
+
+@pytest.fixture()
+def small_spec(tmp_path: Path) -> Path:
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    return p
+
+
+def test_a_spec_resolves_to_hashed_runs_with_every_scenario_checked(small_spec: Path) -> None:
+    spec = load_campaign(small_spec)
+    assert len(spec.runs) == 4  # 2 depths x 2 seeds
+    assert len({r.run_id for r in spec.runs}) == 4
+    # The identity is the resolved scenario and seed: the same spec gives the same ids.
+    assert [r.run_id for r in load_campaign(small_spec).runs] == [r.run_id for r in spec.runs]
+    r = spec.runs[2]
+    assert dict(r.params) == {"initial.depth_m": 2.0} and r.seed == 0
+    assert r.scenario["initial"]["depth_m"] == 2.0
+    assert all(leg["depth_m"] == 2.0 for leg in r.scenario["mission"]["legs"])
+    assert r.scenario["duration_s"] == 2.0
+
+
+def test_ranges_random_draws_and_zip(tmp_path: Path) -> None:
+    data = {
+        "name": "axes",
+        "base": "tank",
+        "combine": "zip",
+        "seeds": [3],
+        "random_seed": 7,
+        "sweep": [
+            {"path": "optics.wind_speed_mps", "range": {"start": 0.0, "stop": 6.0, "step": 2.0}},
+            {
+                "path": "water.temperature_c",
+                "random": {"distribution": "uniform", "low": 5.0, "high": 25.0, "count": 3},
+            },
+        ],
+    }
+    a, b = parse_campaign(data), parse_campaign(data)
+    assert [dict(r.params)["optics.wind_speed_mps"] for r in a.runs] == [0.0, 2.0, 4.0]
+    temps = [dict(r.params)["water.temperature_c"] for r in a.runs]
+    assert temps == [dict(r.params)["water.temperature_c"] for r in b.runs]  # seeded draws
+    assert all(5.0 <= t <= 25.0 for t in temps) and len(set(temps)) == 3
+
+
+@pytest.mark.parametrize(
+    ("edit", "text"),
+    [
+        ({"colour": "red"}, "colour: unknown key"),
+        ({"seeds": 0}, "seeds: 0"),
+        ({"combine": "mix"}, 'combine: "mix"'),
+        ({"base": "nowhere"}, 'base: "nowhere"'),
+        ({"sweep": [{"path": "water.jerlov_type", "values": ["II", "XX"]}]}, "water.jerlov_type"),
+        ({"sweep": [{"path": "a..b", "values": [1]}]}, "not a dotted path"),
+        ({"sweep": [{"path": "x", "range": {"start": 2, "stop": 1}}]}, "stop > start"),
+        ({"sweep": [{"path": "x", "random": {"distribution": "cauchy", "count": 2}}]}, "cauchy"),
+        ({"set": {"nothing": {"here": 1}}}, "no field 'nothing'"),
+    ],
+)
+def test_bad_specs_name_the_field(edit: dict, text: str) -> None:
+    data = {"name": "bad", "base": "tank", **edit}
+    with pytest.raises(CampaignError) as info:
+        parse_campaign(data)
+    assert text in str(info.value)
+
+
+def test_an_invalid_swept_value_names_the_run() -> None:
+    data = {"name": "bad", "base": "tank", "sweep": [{"path": "duration_s", "values": [1.0, -5]}]}
+    with pytest.raises(CampaignError, match=r"run with duration_s = -5: duration_s"):
+        parse_campaign(data)
+
+
+def test_set_path_reaches_tables_arrays_and_every_item() -> None:
+    d = {"a": {"b": [{"c": 1}, {"c": 2}]}}
+    set_path(d, "a.b[*].c", 9)
+    set_path(d, "a.b[0].e", 3)
+    assert d == {"a": {"b": [{"c": 9, "e": 3}, {"c": 9}]}}
+    with pytest.raises(KeyError, match="out of range"):
+        set_path(d, "a.b[5].c", 1)
+
+
+def test_same_numbers_whatever_the_worker_count_and_rows_read_back(
+    small_spec: Path, tmp_path: Path
+) -> None:
+    spec = load_campaign(small_spec)
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert run_campaign(spec, one, workers=1) == {"ok": 4}
+    assert run_campaign(spec, two, workers=2) == {"ok": 4}
+    a = pd.read_parquet(one / "results.parquet")
+    b = load_campaign_results(two)
+    assert list(a["run_id"]) == [r.run_id for r in spec.runs] == list(b["run_id"])
+    metrics = [c for c in a.columns if c.startswith("metric.")]
+    assert "metric.final.depth_m" in metrics and "param.initial.depth_m" in a.columns
+    for c in metrics:
+        if c != "metric.wall_time_s":
+            np.testing.assert_array_equal(a[c].to_numpy(), b[c].to_numpy(), err_msg=c)
+    # The swept depth really changed the run.
+    d = a.groupby("param.initial.depth_m")["metric.final.depth_m"].mean()
+    assert d[1.0] == pytest.approx(1.0, abs=0.3) and d[2.0] == pytest.approx(2.0, abs=0.3)
+    # A re-run skips what is on disk.
+    assert run_campaign(spec, one, workers=1, on_message=lambda m: None) == {}
+
+
+def test_a_failing_run_and_a_slow_run_are_recorded_and_the_campaign_goes_on(
+    small_spec: Path, tmp_path: Path
+) -> None:
+    spec = load_campaign(small_spec)
+    job = _job(spec, None)
+    broken = RunSpec(99, (), 0, {**spec.runs[0].scenario, "duration_s": "long"})
+    row = execute_run(broken, job)
+    assert row["status"] == "error" and "duration_s" in row["error"]
+    slow = execute_run(spec.runs[0], {**job, "wall_time_limit_s": 0.05})
+    assert slow["status"] == "timeout" and "wall-time limit" in slow["error"]
+    ok = execute_run(spec.runs[0], job)
+    assert ok["status"] == "ok"
+
+
+def test_sigkill_loses_only_runs_in_flight_and_the_same_command_resumes(tmp_path: Path) -> None:
+    spec_path = tmp_path / "k.toml"
+    spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 6"))
+    out = tmp_path / "k"
+    cmd = [sys.executable, "-m", "twin.app.cli", "campaign", "run", str(spec_path)]
+    cmd += ["--out", str(out), "--quiet"]
+    env = {**os.environ, "MUJOCO_GL": "disable"}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list((out / "runs").glob("*.parquet"))) < 3:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=10)
+    rows = load_campaign_results(out)  # readable after SIGKILL
+    assert 3 <= len(rows) < 12 and set(rows["status"]) == {"ok"}
+    assert main(["campaign", "run", str(spec_path), "--out", str(out), "--quiet"]) == 0
+    final = load_campaign_results(out)
+    assert len(final) == 12 and final["run_id"].is_unique
+    assert set(rows["run_id"]) <= set(final["run_id"])
+
+
+def test_cli_validate_reports_in_one_place(tmp_path: Path, capsys) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "bad"\nbase = "tank"\nseeds = -1\n')
+    assert main(["campaign", "validate", str(bad)]) == 1
+    err = capsys.readouterr().err
+    assert "seeds: -1" in err and "Traceback" not in err
+    assert main(["campaign", "run", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,263 @@
+"""Running a campaign: every run in a worker process, results written as each run finishes.
+
+The local backend is a pool of worker processes (``spawn``) that live for the whole campaign,
+so each pays the ~3 s of imports once. Each run is isolated:
+
+* a run that raises, or whose kept metrics hold NaN, is recorded with its status ("error",
+  "nan") and error text, and the campaign goes on;
+* a run past ``wall_time_limit_s`` is stopped inside its worker (SIGALRM) and recorded as
+  "timeout";
+* a worker that dies (segfault, out of memory, killed) breaks the pool: the pool is rebuilt and
+  every run that was in flight is retried once, then recorded as "failed".
+
+A re-run of the same command skips the runs that have a row on disk; a campaign killed with
+SIGKILL loses at most the runs in flight. Ctrl-C stops the workers, keeps every finished row and
+says how to resume. Per-run numbers depend on the run's scenario and seed only, never on the
+worker count or the order runs finish in.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import multiprocessing as mp
+import signal
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any
+
+from twin.campaign.results import (
+    consolidate,
+    finished_ids,
+    flatten_metrics,
+    has_nan,
+    write_row,
+    write_timeseries,
+)
+from twin.campaign.spec import CampaignSpec, RunSpec
+
+
+class _WallTimeExceeded(Exception):
+    pass
+
+
+def _on_alarm(signum: int, frame: Any) -> None:
+    raise _WallTimeExceeded
+
+
+def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
+    """One run, in whichever process calls it: a result row (never raises for the run's sake)."""
+    import scenarios
+    from twin.app.run import run_scenario
+
+    row: dict[str, Any] = {
+        "run_id": run.run_id,
+        "index": run.index,
+        "seed": run.seed,
+        **{f"param.{k}": v for k, v in run.params},
+        "status": "ok",
+        "error": "",
+    }
+    series: dict[str, list] = {}
+
+    def keep_series(scorer: Any) -> None:
+        if not job["timeseries"]:
+            return
+        step = max(1, round(job["truth_rate_hz"] / job["timeseries_rate_hz"]))
+        for name, vs in scorer.variants.items():
+            series.setdefault("t", list(vs.t[::step]))
+            series[f"{name}.heading_error_deg"] = list(vs.heading_err[::step])
+
+    limit = float(job["wall_time_limit_s"])
+    use_alarm = hasattr(signal, "SIGALRM")
+    t0 = time.perf_counter()
+    try:
+        sc = scenarios.parse_scenario(run.scenario, run.run_id)
+        if use_alarm:
+            signal.signal(signal.SIGALRM, _on_alarm)
+            signal.setitimer(signal.ITIMER_REAL, limit)
+        keep = job["keep_dir"]
+        with tempfile.TemporaryDirectory(prefix="auv-twin-run-") as tmp:
+            out = Path(keep) / run.run_id if keep else Path(tmp)
+            metrics = run_scenario(
+                sc,
+                out,
+                seed=run.seed,
+                camera=False,
+                on_message=lambda _m: None,
+                record=bool(keep),
+                on_scored=keep_series,
+            )
+        row.update({f"metric.{k}": v for k, v in flatten_metrics(metrics, job["metrics"]).items()})
+        if not metrics.get("complete", False):
+            row["status"], row["error"] = "error", str(metrics.get("error", metrics["status"]))
+        else:
+            bad = has_nan(row)
+            if bad:
+                row["status"], row["error"] = "nan", f"non-finite metrics: {bad[:5]}"
+    except _WallTimeExceeded:
+        row["status"], row["error"] = "timeout", f"passed the wall-time limit of {limit:g} s"
+    except Exception as exc:  # the run's failure is data; the campaign goes on
+        row["status"], row["error"] = "error", f"{type(exc).__name__}: {exc}"
+    finally:
+        if use_alarm:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+    row["wall_time_s"] = time.perf_counter() - t0
+    row["_series"] = series
+    return row
+
+
+def _job(spec: CampaignSpec, keep_dir: Path | None) -> dict[str, Any]:
+    return {
+        "metrics": list(spec.metrics),
+        "wall_time_limit_s": spec.wall_time_limit_s,
+        "timeseries": list(spec.timeseries),
+        "timeseries_rate_hz": spec.timeseries_rate_hz,
+        "truth_rate_hz": spec.base.recording.truth_rate_hz,
+        "keep_dir": str(keep_dir) if keep_dir else "",
+    }
+
+
+def _worker_init() -> None:
+    # Pay the imports once per worker; let the parent handle Ctrl-C.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import twin.app.run  # noqa: F401
+
+
+def _store(out: Path, row: dict[str, Any]) -> None:
+    series = row.pop("_series", {})
+    if series:
+        write_timeseries(out, row["run_id"], series)
+    write_row(out, row)
+
+
+def run_campaign(
+    spec: CampaignSpec,
+    out: str | Path,
+    *,
+    workers: int = 1,
+    progress: bool = False,
+    on_message: Callable[[str], None] | None = None,
+) -> dict[str, int]:
+    """Run every run of ``spec`` not yet on disk in ``out``; returns counts by status.
+
+    Raises:
+        KeyboardInterrupt: After stopping the workers; every finished row stays on disk.
+    """
+    say = on_message or (lambda m: print(m, file=sys.stderr))
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "campaign.json").write_text(
+        json.dumps(
+            {
+                "name": spec.name,
+                "source": spec.source,
+                "runs": len(spec.runs),
+                "seeds": list(spec.seeds),
+                "axes": {a.name: list(a.values) for a in spec.axes},
+                "combine": spec.combine,
+            },
+            indent=2,
+            default=str,
+        )
+        + "\n"
+    )
+    done = finished_ids(out)
+    todo = [r for r in spec.runs if r.run_id not in done]
+    if done:
+        say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
+    job = _job(spec, out / "recordings" if spec.keep_recordings else None)
+    counts: dict[str, int] = {}
+    bar = _bar(len(todo)) if progress else None
+    t0 = time.perf_counter()
+
+    def record(row: dict[str, Any]) -> None:
+        _store(out, row)
+        counts[row["status"]] = counts.get(row["status"], 0) + 1
+        if bar is not None:
+            n_ok = counts.get("ok", 0)
+            rate = sum(counts.values()) / max(time.perf_counter() - t0, 1e-9) * 60
+            bar.set_postfix(ok=n_ok, failed=sum(counts.values()) - n_ok, per_min=f"{rate:.1f}")
+            bar.update(1)
+
+    try:
+        if workers <= 1:
+            for r in todo:
+                record(execute_run(r, job))
+        else:
+            _run_pool(todo, job, workers, record)
+    except KeyboardInterrupt:
+        n = sum(counts.values()) + len(spec.runs) - len(todo)
+        say(
+            f"\ninterrupted: {n} of {len(spec.runs)} runs are on disk in {out}; "
+            "run the same command again to resume"
+        )
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        consolidate(out)
+    return counts
+
+
+def _run_pool(todo: list[RunSpec], job: dict, workers: int, record: Callable) -> None:
+    """The local pool: long-lived workers; a broken pool is rebuilt, its runs retried once."""
+    ctx = mp.get_context("spawn")
+    pending = list(todo)
+    tries: dict[str, int] = {}
+    while pending:
+        pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        futures = {pool.submit(execute_run, r, job): r for r in pending}
+        pending = []
+        broken = False
+        try:
+            for fut in cf.as_completed(futures):
+                r = futures[fut]
+                try:
+                    record(fut.result())
+                except BrokenProcessPool:
+                    broken = True
+                    tries[r.run_id] = tries.get(r.run_id, 0) + 1
+                    if tries[r.run_id] >= 2:
+                        record(_failed(r, "the worker process died twice (crash or out of memory)"))
+                    else:
+                        pending.append(r)
+        except KeyboardInterrupt:
+            _kill(pool)
+            raise
+        finally:
+            if broken:
+                _kill(pool)
+            else:
+                pool.shutdown(wait=True, cancel_futures=True)
+        pending.sort(key=lambda r: r.index)
+
+
+def _kill(pool: cf.ProcessPoolExecutor) -> None:
+    for p in list(getattr(pool, "_processes", {}).values()):
+        if p.is_alive():
+            p.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _failed(r: RunSpec, why: str) -> dict[str, Any]:
+    return {
+        "run_id": r.run_id,
+        "index": r.index,
+        "seed": r.seed,
+        **{f"param.{k}": v for k, v in r.params},
+        "status": "failed",
+        "error": why,
+        "wall_time_s": float("nan"),
+        "_series": {},
+    }
+
+
+def _bar(total: int):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="run", desc="campaign", file=sys.stderr)

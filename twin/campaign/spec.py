@@ -1,0 +1,497 @@
+"""A campaign as data: a TOML spec of seeded trials swept over scenario fields.
+
+    name = "depth_water"
+    base = "sea_trial_10m"            # a shipped scenario or a .toml path (relative to the spec)
+    combine = "grid"                  # "grid" (every combination) or "zip" (axes in lock-step)
+    seeds = 20                        # a count (seeds 0..N-1) or a list of seeds
+    wall_time_limit_s = 900           # per run; a run past it is recorded as "timeout"
+    metrics = ["navigation.variants.*.heading_rmse_deg"]   # flattened metrics.json keys to keep
+                                                           # (fnmatch patterns; default: all)
+    [set]                             # fixed changes to the base, by dotted path
+    duration_s = 120.0
+
+    [[sweep]]
+    path = ["initial.depth_m", "mission.legs[*].depth_m"]   # one axis may set several fields
+    values = [2.0, 5.0, 10.0, 20.0]
+    [[sweep]]
+    path = "water.jerlov_type"
+    values = ["I", "II", "1C", "3C"]
+    [[sweep]]
+    path = "optics.wind_speed_mps"
+    range = { start = 0.0, stop = 10.0, step = 2.0 }        # stop excluded, like Python's range
+    [[sweep]]
+    path = "start_utc"
+    random = { distribution = "uniform", low = 0, high = 3600, count = 4, unit = "s_after_base" }
+
+Validated before anything runs, in the scenarios' error style: every error names the field, the
+value and what is allowed; unknown keys are errors; all errors are reported together. Every
+resolved run is parsed as a scenario (:func:`scenarios.parse_scenario`), so a swept value that
+makes an invalid scenario is an error of the spec, naming the run.
+
+A run's identity is a hash of its resolved scenario and seed (:attr:`RunSpec.run_id`): the same
+spec gives the same runs, ids and numbers whatever the backend or the worker count.
+"""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import hashlib
+import itertools
+import json
+import math
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import scenarios
+from scenarios import ScenarioError
+from scenarios.schema import Scenario
+
+COMBINE = ("grid", "zip")
+DISTRIBUTIONS = ("uniform", "normal", "loguniform", "choice")
+_TOP_KEYS = {
+    "name", "description", "base", "combine", "seeds", "wall_time_limit_s", "metrics", "set",
+    "sweep", "random_seed", "timeseries", "keep_recordings",
+}  # fmt: skip
+_NAME = re.compile(r"[a-z0-9_]{1,64}")
+_PATH_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[(?:\d+|\*)\])*)")
+
+
+class CampaignError(ValueError):
+    """A campaign spec that cannot run: every problem found, one per line."""
+
+    def __init__(self, errors: Sequence[str], source: str = "<campaign>"):
+        self.errors = list(errors)
+        self.source = source
+        if len(self.errors) == 1:
+            text = f"{source}: {self.errors[0]}"
+        else:
+            text = f"{source}: {len(self.errors)} problems:\n" + "\n".join(
+                f"  {e}" for e in self.errors
+            )
+        super().__init__(text)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.errors, self.source))
+
+
+@dataclass(frozen=True, slots=True)
+class Axis:
+    """One sweep axis: the fields it sets (dotted paths) and the values it takes."""
+
+    paths: tuple[str, ...]
+    values: tuple[Any, ...]
+
+    @property
+    def name(self) -> str:
+        return self.paths[0]
+
+
+@dataclass(frozen=True, slots=True)
+class RunSpec:
+    """One resolved run: its swept values, its seed, its scenario (as a dict) and its id."""
+
+    index: int
+    params: tuple[tuple[str, Any], ...]
+    seed: int
+    scenario: Mapping[str, Any] = field(repr=False)
+
+    @property
+    def run_id(self) -> str:
+        """Hash of the resolved scenario and seed (independent of backend and order)."""
+        blob = json.dumps({"scenario": self.scenario, "seed": self.seed}, sort_keys=True)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True, slots=True)
+class CampaignSpec:
+    """A validated campaign."""
+
+    name: str
+    description: str
+    base: Scenario
+    combine: str
+    seeds: tuple[int, ...]
+    axes: tuple[Axis, ...]
+    fixed: tuple[tuple[str, Any], ...]
+    metrics: tuple[str, ...]
+    wall_time_limit_s: float
+    timeseries: tuple[str, ...]
+    timeseries_rate_hz: float
+    keep_recordings: int
+    source: str = "<campaign>"
+    runs: tuple[RunSpec, ...] = field(default=(), repr=False)
+
+    def __len__(self) -> int:
+        return len(self.runs)
+
+
+# ---- dotted paths ---------------------------------------------------------------------------
+def _parse_path(path: str) -> list[tuple[str, list[str]]] | None:
+    parts = []
+    for chunk in path.split("."):
+        m = _PATH_PART.fullmatch(chunk)
+        if m is None:
+            return None
+        parts.append((m.group(1), re.findall(r"\[(\d+|\*)\]", m.group(2))))
+    return parts
+
+
+def set_path(data: dict[str, Any], path: str, value: Any) -> None:
+    """Set ``value`` at a dotted path (``a.b[0].c``, ``legs[*].depth_m``) in a scenario dict.
+
+    Raises:
+        KeyError: The path does not fit the scenario (tables and arrays must exist; the last
+            field may be new, so that defaults left out of a file can be set).
+    """
+    parts = _parse_path(path)
+    if parts is None:
+        raise KeyError(f"{path!r} is not a dotted path (a.b, a.b[0], a.b[*])")
+    _set(data, parts, value, path)
+
+
+def _set(node: Any, parts: list[tuple[str, list[str]]], value: Any, path: str) -> None:
+    (key, idx), rest = parts[0], parts[1:]
+    if not isinstance(node, dict):
+        raise KeyError(f"{path!r}: {key!r} is inside a value, not a table")
+    if not idx and not rest:
+        node[key] = copy.deepcopy(value)
+        return
+    if key not in node:
+        raise KeyError(f"{path!r}: no field {key!r} in the scenario")
+    _descend(node, key, idx, rest, value, path)
+
+
+def _descend(parent: Any, key: Any, idx: list[str], rest: list, value: Any, path: str) -> None:
+    if not idx:
+        _set(parent[key], rest, value, path)
+        return
+    arr = parent[key]
+    if not isinstance(arr, list):
+        raise KeyError(f"{path!r}: {key!r} is not an array")
+    ks = range(len(arr)) if idx[0] == "*" else [int(idx[0])]
+    for k in ks:
+        if k >= len(arr):
+            raise KeyError(f"{path!r}: index {k} out of range ({len(arr)} items)")
+        if len(idx) == 1 and not rest:
+            arr[k] = copy.deepcopy(value)
+        else:
+            _descend(arr, k, idx[1:], rest, value, path)
+
+
+# ---- loading --------------------------------------------------------------------------------
+def _show(v: Any) -> str:
+    return json.dumps(v) if isinstance(v, str) else repr(v)
+
+
+def _number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _axis_values(i: int, t: Mapping[str, Any], rng: np.random.Generator, errs: list[str]) -> list:
+    where = f"sweep[{i}]"
+    kinds = [k for k in ("values", "range", "random") if k in t]
+    if len(kinds) != 1:
+        errs.append(f"{where}: give exactly one of values, range, random (got {kinds or 'none'})")
+        return []
+    kind = kinds[0]
+    spec = t[kind]
+    if kind == "values":
+        if not isinstance(spec, list) or not spec:
+            errs.append(f"{where}.values: {_show(spec)}; allowed: a non-empty array")
+            return []
+        return list(spec)
+    if kind == "range":
+        if not isinstance(spec, Mapping) or set(spec) - {"start", "stop", "step"}:
+            errs.append(f"{where}.range: {_show(spec)}; allowed: {{start, stop, step}}")
+            return []
+        a, b, s = spec.get("start"), spec.get("stop"), spec.get("step", 1)
+        if not (_number(a) and _number(b) and _number(s) and s > 0 and b > a):
+            errs.append(
+                f"{where}.range: start {a!r}, stop {b!r}, step {s!r}; allowed: numbers with "
+                "stop > start and step > 0"
+            )
+            return []
+        n = math.ceil((b - a) / s - 1e-9)
+        if n > 100_000:
+            errs.append(f"{where}.range: {n} values; allowed: at most 100000")
+            return []
+        ints = all(isinstance(x, int) for x in (a, b, s))
+        return [a + k * s if ints else round(a + k * s, 12) for k in range(n)]
+    # random draws from a named distribution, from the campaign's own Generator
+    if not isinstance(spec, Mapping):
+        errs.append(f"{where}.random: {_show(spec)}; allowed: a table")
+        return []
+    dist, count = spec.get("distribution"), spec.get("count")
+    if dist not in DISTRIBUTIONS:
+        errs.append(f"{where}.random.distribution: {_show(dist)}; allowed: {list(DISTRIBUTIONS)}")
+        return []
+    if not (isinstance(count, int) and not isinstance(count, bool) and 1 <= count <= 100_000):
+        errs.append(f"{where}.random.count: {count!r}; allowed: an integer in [1, 100000]")
+        return []
+    allowed = {
+        "uniform": {"low", "high"},
+        "loguniform": {"low", "high"},
+        "normal": {"mean", "std"},
+        "choice": {"options"},
+    }[dist] | {"distribution", "count"}
+    extra = sorted(set(spec) - allowed)
+    if extra:
+        errs.append(f"{where}.random: unknown key(s) {extra}; allowed: {sorted(allowed)}")
+        return []
+    if dist in ("uniform", "loguniform"):
+        lo, hi = spec.get("low"), spec.get("high")
+        if not (_number(lo) and _number(hi) and hi > lo and (dist == "uniform" or lo > 0)):
+            errs.append(
+                f"{where}.random: low {lo!r}, high {hi!r}; allowed: numbers with high > low"
+                + (" > 0" if dist == "loguniform" else "")
+            )
+            return []
+        if dist == "uniform":
+            return [float(x) for x in rng.uniform(lo, hi, count)]
+        return [float(x) for x in np.exp(rng.uniform(math.log(lo), math.log(hi), count))]
+    if dist == "normal":
+        mu, sd = spec.get("mean"), spec.get("std")
+        if not (_number(mu) and _number(sd) and sd > 0):
+            errs.append(f"{where}.random: mean {mu!r}, std {sd!r}; allowed: numbers, std > 0")
+            return []
+        return [float(x) for x in rng.normal(mu, sd, count)]
+    opts = spec.get("options")
+    if not isinstance(opts, list) or not opts:
+        errs.append(f"{where}.random.options: {_show(opts)}; allowed: a non-empty array")
+        return []
+    return [opts[int(k)] for k in rng.integers(0, len(opts), count)]
+
+
+def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Path | None = None):
+    """Validate a campaign mapping; every problem at once (:class:`CampaignError`)."""
+    errs: list[str] = []
+    if not isinstance(data, Mapping):
+        raise CampaignError(["the campaign is not a table"], source)
+    for k in sorted(set(data) - _TOP_KEYS):
+        errs.append(f"{k}: unknown key; allowed: {sorted(_TOP_KEYS)}")
+    name = data.get("name")
+    if not (isinstance(name, str) and _NAME.fullmatch(name)):
+        errs.append(f"name: {_show(name)}; allowed: 1-64 lowercase letters, digits and '_'")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        errs.append(f"description: {_show(description)}; allowed: a string")
+    combine = data.get("combine", "grid")
+    if combine not in COMBINE:
+        errs.append(f"combine: {_show(combine)}; allowed: {list(COMBINE)}")
+    seeds_raw = data.get("seeds", 1)
+    seeds: tuple[int, ...] = ()
+    if isinstance(seeds_raw, int) and not isinstance(seeds_raw, bool) and 1 <= seeds_raw <= 1e6:
+        seeds = tuple(range(seeds_raw))
+    elif (
+        isinstance(seeds_raw, list)
+        and seeds_raw
+        and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds_raw)
+        and len(set(seeds_raw)) == len(seeds_raw)
+    ):
+        seeds = tuple(seeds_raw)
+    else:
+        errs.append(
+            f"seeds: {_show(seeds_raw)}; allowed: a count in [1, 1000000] or a list of distinct "
+            "integers >= 0"
+        )
+    limit = data.get("wall_time_limit_s", 3600.0)
+    if not (_number(limit) and limit > 0):
+        errs.append(f"wall_time_limit_s: {_show(limit)}; allowed: a number > 0 (seconds)")
+    metrics = data.get("metrics", ["*"])
+    if not (isinstance(metrics, list) and metrics and all(isinstance(m, str) for m in metrics)):
+        errs.append(f"metrics: {_show(metrics)}; allowed: a non-empty array of key patterns")
+        metrics = ["*"]
+    random_seed = data.get("random_seed", 0)
+    if not (
+        isinstance(random_seed, int) and not isinstance(random_seed, bool) and random_seed >= 0
+    ):
+        errs.append(f"random_seed: {_show(random_seed)}; allowed: an integer >= 0")
+        random_seed = 0
+    keep = data.get("keep_recordings", 0)
+    if not (isinstance(keep, int) and not isinstance(keep, bool) and keep >= 0):
+        errs.append(f"keep_recordings: {_show(keep)}; allowed: an integer >= 0 (the k worst)")
+        keep = 0
+    ts = data.get("timeseries", {})
+    ts_keep: tuple[str, ...] = ()
+    ts_rate = 1.0
+    if not isinstance(ts, Mapping) or set(ts) - {"keep", "rate_hz"}:
+        errs.append(f"timeseries: {_show(ts)}; allowed: a table with keep, rate_hz")
+    else:
+        k = ts.get("keep", [])
+        if not (isinstance(k, list) and all(x in ("heading_error_deg",) for x in k)):
+            errs.append(f"timeseries.keep: {_show(k)}; allowed: a list of ['heading_error_deg']")
+        else:
+            ts_keep = tuple(k)
+        ts_rate = ts.get("rate_hz", 1.0)
+        if not (_number(ts_rate) and 0 < ts_rate <= 10):
+            errs.append(f"timeseries.rate_hz: {_show(ts_rate)}; allowed: (0, 10]")
+            ts_rate = 1.0
+
+    # The base scenario.
+    base_raw = data.get("base")
+    base: Scenario | None = None
+    if not isinstance(base_raw, str):
+        errs.append(f"base: {_show(base_raw)}; allowed: a shipped scenario name or a .toml path")
+    else:
+        target = base_raw
+        if base_raw.endswith(".toml") and root is not None and not Path(base_raw).is_absolute():
+            target = str(root / base_raw)
+        try:
+            base = scenarios.load(target)
+        except (ScenarioError, FileNotFoundError) as exc:
+            errs.append(f"base: {_show(base_raw)}: {exc}")
+
+    fixed_raw = data.get("set", {})
+    fixed: list[tuple[str, Any]] = []
+    if not isinstance(fixed_raw, Mapping):
+        errs.append(f"set: {_show(fixed_raw)}; allowed: a table of dotted path = value")
+    else:
+        for k, v in _flatten_set(fixed_raw):
+            fixed.append((k, v))
+
+    rng = np.random.default_rng(random_seed)
+    axes: list[Axis] = []
+    sweeps = data.get("sweep", [])
+    if not isinstance(sweeps, list):
+        errs.append(f"sweep: {_show(sweeps)}; allowed: an array of [[sweep]] tables")
+        sweeps = []
+    for i, t in enumerate(sweeps):
+        if not isinstance(t, Mapping):
+            errs.append(f"sweep[{i}]: {_show(t)}; allowed: a table")
+            continue
+        extra = sorted(set(t) - {"path", "values", "range", "random"})
+        if extra:
+            errs.append(f"sweep[{i}]: unknown key(s) {extra}; allowed: path, values, range, random")
+        p = t.get("path")
+        paths = [p] if isinstance(p, str) else p
+        if not (isinstance(paths, list) and paths and all(isinstance(x, str) for x in paths)):
+            errs.append(f"sweep[{i}].path: {_show(p)}; allowed: a dotted path or a list of them")
+            continue
+        bad = [x for x in paths if _parse_path(x) is None]
+        if bad:
+            errs.append(f"sweep[{i}].path: {bad} is not a dotted path (a.b, a.b[0], a.b[*])")
+            continue
+        values = _axis_values(i, t, rng, errs)
+        if values:
+            axes.append(Axis(tuple(paths), tuple(values)))
+    if combine == "zip" and len({len(a.values) for a in axes}) > 1:
+        errs.append(
+            'combine: "zip" needs axes of one length; got '
+            + ", ".join(f"{a.name} ({len(a.values)})" for a in axes)
+        )
+    if errs:
+        raise CampaignError(errs, source)
+    assert base is not None and isinstance(name, str)
+
+    runs = _resolve(base, axes, combine, seeds, fixed, source)
+    return CampaignSpec(
+        name=name,
+        description=description,
+        base=base,
+        combine=combine,
+        seeds=seeds,
+        axes=tuple(axes),
+        fixed=tuple(fixed),
+        metrics=tuple(metrics),
+        wall_time_limit_s=float(limit),
+        timeseries=ts_keep,
+        timeseries_rate_hz=float(ts_rate),
+        keep_recordings=keep,
+        source=source,
+        runs=runs,
+    )
+
+
+def _flatten_set(t: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    """[set] as dotted paths: nested tables become a.b keys; quoted keys may hold dots."""
+    out = []
+    for k, v in t.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out += _flatten_set(v, key + ".")
+        else:
+            out.append((key, v))
+    return out
+
+
+def _resolve(base, axes, combine, seeds, fixed, source) -> tuple[RunSpec, ...]:
+    """Every run: the base with [set] and the swept values applied, parsed as a scenario."""
+    base_dict = base.to_dict()
+    errs: list[str] = []
+    for path, value in fixed:
+        try:
+            set_path(base_dict, path, value)
+        except KeyError as exc:
+            errs.append(f"set.{path}: {exc.args[0]}")
+    if errs:
+        raise CampaignError(errs, source)
+    if axes:
+        combos = (
+            list(itertools.product(*[a.values for a in axes]))
+            if combine == "grid"
+            else list(zip(*[a.values for a in axes], strict=True))
+        )
+    else:
+        combos = [()]
+    if len(combos) * len(seeds) > 1_000_000:
+        raise CampaignError([f"{len(combos) * len(seeds)} runs; allowed: at most 1000000"], source)
+    runs: list[RunSpec] = []
+    checked: dict[str, dict[str, Any]] = {}
+    for combo in combos:
+        d = copy.deepcopy(base_dict)
+        params = []
+        try:
+            for axis, value in zip(axes, combo, strict=True):
+                for path in axis.paths:
+                    set_path(d, path, _for_path(path, value, base))
+                params.append((axis.name, value))
+        except KeyError as exc:
+            errs.append(f"sweep {axis.name}: {exc.args[0]}")
+            continue
+        key = json.dumps(d, sort_keys=True, default=str)
+        if key not in checked:
+            try:
+                # Every swept value must make a valid scenario: checked here, before any run.
+                checked[key] = scenarios.parse_scenario(d, source).to_dict()
+            except ScenarioError as exc:
+                where = ", ".join(f"{k} = {_show(v)}" for k, v in params) or "the base"
+                errs.append(f"run with {where}: " + "; ".join(exc.errors))
+                continue
+        for seed in seeds:
+            runs.append(RunSpec(len(runs), tuple(params), seed, {**checked[key], "seed": seed}))
+        if len(errs) > 20:
+            break
+    if errs:
+        raise CampaignError(errs, source)
+    return tuple(runs)
+
+
+def _for_path(path: str, value: Any, base: Scenario) -> Any:
+    """start_utc swept as seconds after the base start is written as a timestamp."""
+    if path == "start_utc" and _number(value):
+        t = base.start_utc + dt.timedelta(seconds=float(value))
+        return t.isoformat().replace("+00:00", "Z")
+    return value
+
+
+def load_campaign(path: str | Path) -> CampaignSpec:
+    """Read and validate a campaign TOML file (:class:`CampaignError` on any problem)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CampaignError([f"cannot read the file: {exc.strerror or exc}"], str(p)) from None
+    except UnicodeDecodeError:
+        raise CampaignError(["not UTF-8 text"], str(p)) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise CampaignError([f"TOML syntax error: {exc}"], str(p)) from None
+    return parse_campaign(data, str(p), p.parent)
