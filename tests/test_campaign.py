@@ -174,3 +174,38 @@ def test_cli_validate_reports_in_one_place(tmp_path: Path, capsys) -> None:
     assert "seeds: -1" in err and "Traceback" not in err
     assert main(["campaign", "run", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert not (tmp_path / "o").exists()
+
+
+# ---- Ray: a real local instance, and a real head node on 127.0.0.1 ----------------------------
+def test_ray_gives_the_local_pools_numbers(small_spec: Path, tmp_path: Path) -> None:
+    spec = load_campaign(small_spec)
+    assert run_campaign(spec, tmp_path / "pool", workers=1) == {"ok": 4}
+    assert run_campaign(spec, tmp_path / "ray", workers=2, use_ray=True) == {"ok": 4}
+    a, b = load_campaign_results(tmp_path / "pool"), load_campaign_results(tmp_path / "ray")
+    assert list(a["run_id"]) == list(b["run_id"])
+    for c in (c for c in a.columns if c.startswith("metric.") and c != "metric.wall_time_s"):
+        np.testing.assert_array_equal(a[c].to_numpy(), b[c].to_numpy(), err_msg=c)
+
+
+def test_a_campaign_runs_on_a_ray_head_node_at_its_address(
+    small_spec: Path, tmp_path: Path, monkeypatch
+) -> None:
+    import socket
+    import sysconfig
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    # A loopback-only cluster for the test: Ray's token authentication is switched off for it.
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
+    ray_cli = str(Path(sysconfig.get_path("scripts")) / "ray")
+    start = [ray_cli, "start", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port)]
+    start += ["--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats"]
+    subprocess.run(start, check=True, capture_output=True, timeout=120)
+    try:
+        spec = load_campaign(small_spec)
+        counts = run_campaign(spec, tmp_path / "c", use_ray=True, ray_address=f"127.0.0.1:{port}")
+        assert counts == {"ok": 4}
+        assert len(load_campaign_results(tmp_path / "c")) == 4
+    finally:
+        subprocess.run([ray_cli, "stop", "--force"], capture_output=True, timeout=120)

@@ -179,7 +179,14 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
         print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
         return 2
     try:
-        counts = run_campaign(spec, out, workers=args.workers, progress=not args.quiet)
+        counts = run_campaign(
+            spec,
+            out,
+            workers=args.workers,
+            use_ray=args.ray is not None,
+            ray_address=None if args.ray in (None, "local") else args.ray,
+            progress=not args.quiet,
+        )
     except KeyboardInterrupt:
         return 130
     total = sum(counts.values())
@@ -238,6 +245,13 @@ def build_parser() -> argparse.ArgumentParser:
     cr.add_argument("spec", help="a campaign .toml file")
     cr.add_argument("--out", required=True, help="results folder")
     cr.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    cr.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        metavar="ADDRESS",
+        help="run on Ray: a local instance, or the cluster at ADDRESS ('auto' or host:port)",
+    )
     cr.add_argument("--quiet", action="store_true", help="no progress bar")
     cr.set_defaults(func=_cmd_campaign_run)
     return p

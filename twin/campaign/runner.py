@@ -24,6 +24,7 @@ import multiprocessing as mp
 import signal
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
@@ -73,7 +74,9 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
             series[f"{name}.heading_error_deg"] = list(vs.heading_err[::step])
 
     limit = float(job["wall_time_limit_s"])
-    use_alarm = hasattr(signal, "SIGALRM")
+    # SIGALRM works in a process's main thread only (the local pool's workers and Ray's task
+    # threads are; a caller's other threads are not, and then the limit is not enforced).
+    use_alarm = hasattr(signal, "SIGALRM") and threading.current_thread() is threading.main_thread()
     t0 = time.perf_counter()
     try:
         sc = scenarios.parse_scenario(run.scenario, run.run_id)
@@ -140,10 +143,21 @@ def run_campaign(
     out: str | Path,
     *,
     workers: int = 1,
+    ray_address: str | None = None,
+    use_ray: bool = False,
     progress: bool = False,
     on_message: Callable[[str], None] | None = None,
 ) -> dict[str, int]:
     """Run every run of ``spec`` not yet on disk in ``out``; returns counts by status.
+
+    Args:
+        spec: The campaign.
+        out: Its results folder (resumed when it holds rows).
+        workers: Local worker processes (the local Ray instance's CPUs with ``use_ray``).
+        ray_address: A Ray cluster to join (``"auto"`` or ``"host:port"``); None: local Ray.
+        use_ray: Run on Ray instead of the local pool.
+        progress: A progress bar (runs done, failed, runs per minute, ETA) on stderr.
+        on_message: One-line notices (resume, interrupt); default stderr.
 
     Raises:
         KeyboardInterrupt: After stopping the workers; every finished row stays on disk.
@@ -185,7 +199,13 @@ def run_campaign(
             bar.update(1)
 
     try:
-        if workers <= 1:
+        if use_ray:
+            from twin.campaign.ray_backend import run_on_ray
+
+            run_on_ray(
+                todo, job, record, address=ray_address, num_cpus=None if ray_address else workers
+            )
+        elif workers <= 1:
             for r in todo:
                 record(execute_run(r, job))
         else:
