@@ -209,3 +209,59 @@ def test_a_campaign_runs_on_a_ray_head_node_at_its_address(
         assert len(load_campaign_results(tmp_path / "c")) == 4
     finally:
         subprocess.run([ray_cli, "stop", "--force"], capture_output=True, timeout=120)
+
+
+# ---- the report ---------------------------------------------------------------------------------
+def test_the_report_computes_from_the_rows_and_draws_real_figures(tmp_path: Path) -> None:
+    import matplotlib.image as mpimg
+
+    from twin.campaign.report import write_report
+
+    spec = parse_campaign(
+        {
+            "name": "rep",
+            "base": "default",
+            "seeds": 3,
+            "metrics": ["navigation.variants.*.heading_rmse_deg"],
+            "set": {"duration_s": 2.0},
+            "sweep": [
+                {"path": ["initial.depth_m", "mission.legs[*].depth_m"], "values": [5.0, 12.0]}
+            ],
+        }
+    )
+    out = tmp_path / "rep"
+    assert run_campaign(spec, out) == {"ok": 6}
+    md = write_report(out)
+    text = md.read_text()
+    groups = pd.read_csv(out / "report" / "groups.csv")
+    rows = load_campaign_results(out)
+    # The table is the rows' statistics: the mean per (depth, variant) is pandas' own.
+    for _, g in groups.iterrows():
+        sel = rows[rows["param.initial.depth_m"] == g["param.initial.depth_m"]]
+        col = f"metric.navigation.variants.{g['variant']}.heading_rmse_deg"
+        assert g["mean"] == pytest.approx(sel[col].mean())
+        assert g["mean_lo"] <= g["mean"] <= g["mean_hi"] and g["n"] == 3
+        assert f"{g['mean']:.3f}" in text
+    paired = pd.read_csv(out / "report" / "paired.csv")
+    assert set(zip(paired["a"], paired["b"], strict=True)) == {
+        ("ins", "lig"),
+        ("ins", "pol"),
+        ("lig", "pol"),
+    }
+    for name in (
+        "heading_rmse_deg_vs_initial_depth_m",
+        "heading_rmse_deg_cdf",
+        "heading_rmse_deg_box",
+    ):
+        png = out / "report" / f"{name}.png"
+        assert f"({png.name})" in text
+        img = mpimg.imread(png)
+        assert img.shape[0] > 200 and img.std() > 0.05  # drawn, not blank
+
+
+def test_report_errors_are_one_line(tmp_path: Path, capsys) -> None:
+    assert main(["campaign", "report", str(tmp_path / "none")]) == 2
+    assert "no such campaign folder" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(["campaign", "report", str(tmp_path / "empty")]) == 2
+    assert "no finished run" in capsys.readouterr().err

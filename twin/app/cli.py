@@ -198,6 +198,21 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
     return 0 if counts.get("ok", 0) == total else 1
 
 
+def _cmd_campaign_report(args: argparse.Namespace) -> int:
+    from twin.campaign.report import write_report
+
+    if not Path(args.dir).is_dir():
+        print(f"error: {args.dir}: no such campaign folder", file=sys.stderr)
+        return 2
+    try:
+        path = write_report(args.dir, metric=args.metric)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"report: {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="auv-twin",
@@ -254,6 +269,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cr.add_argument("--quiet", action="store_true", help="no progress bar")
     cr.set_defaults(func=_cmd_campaign_run)
+    cp = csub.add_parser("report", help="statistics with confidence intervals and plots")
+    cp.add_argument("dir", help="a campaign's results folder")
+    cp.add_argument(
+        "--metric",
+        default="heading_rmse_deg",
+        help="the per-variant metric to report (default: heading_rmse_deg)",
+    )
+    cp.set_defaults(func=_cmd_campaign_report)
     return p
 
 

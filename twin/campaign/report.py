@@ -1,0 +1,284 @@
+"""The campaign report: statistics with bootstrap confidence intervals, paired comparisons, plots.
+
+``auv-twin campaign report DIR`` reads the campaign's rows (:mod:`twin.campaign.results`) and
+writes ``DIR/report/report.md`` with PNG figures beside it:
+
+* per group (the swept values × the filter variant): n, mean, RMSE, median and 95th percentile of
+  the chosen per-run metric (default: each variant's heading RMSE), each with a 95 % bootstrap
+  confidence interval (``scipy.stats.bootstrap``, percentile method, seeded: the same rows give
+  the same report);
+* paired comparisons between variants on the same runs (same seed, same frames): the mean paired
+  difference with its bootstrap CI, and how often the first is better;
+* figures: the metric against each swept parameter with CI bands per variant, the CDF per variant,
+  box plots per variant.
+
+Every number in the report is computed from the rows on disk; nothing is typed in.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+_VARIANT = "metric.navigation.variants."
+_CONFIDENCE = 0.95
+_RESAMPLES = 2000
+
+
+def _rmse(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    return np.sqrt(np.mean(np.square(x), axis=axis))
+
+
+def _p95(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    return np.percentile(x, 95, axis=axis)
+
+
+STATISTICS: dict[str, Callable[..., np.ndarray]] = {
+    "mean": np.mean,
+    "rmse": _rmse,
+    "median": np.median,
+    "p95": _p95,
+}
+
+
+def bootstrap_ci(x: Sequence[float], statistic: Callable, seed: int = 0) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of ``statistic`` over ``x`` (NaN for n < 2)."""
+    a = np.asarray(x, dtype=np.float64)
+    a = a[np.isfinite(a)]
+    if a.size < 2 or np.all(a == a[0]):
+        v = float(statistic(a)) if a.size else math.nan
+        return (v, v) if a.size else (math.nan, math.nan)
+    res = stats.bootstrap(
+        (a,),
+        statistic,
+        confidence_level=_CONFIDENCE,
+        n_resamples=_RESAMPLES,
+        method="percentile",
+        vectorized=True,
+        rng=np.random.default_rng(seed),
+    )
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+def variants_of(df: pd.DataFrame, metric: str) -> list[str]:
+    """Filter variants with a ``metric`` column (e.g. ``heading_rmse_deg``)."""
+    out = []
+    for c in df.columns:
+        if c.startswith(_VARIANT) and c.endswith("." + metric):
+            out.append(c[len(_VARIANT) : -len(metric) - 1])
+    return sorted(out)
+
+
+def long_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """One row per (run, variant): run_id, seed, the params, variant, value."""
+    params = [c for c in df.columns if c.startswith("param.")]
+    rows = []
+    for v in variants_of(df, metric):
+        part = df[["run_id", "seed", *params]].copy()
+        part["variant"] = v
+        part["value"] = df[f"{_VARIANT}{v}.{metric}"].astype(float)
+        rows.append(part)
+    if not rows:
+        return pd.DataFrame(columns=["run_id", "seed", *params, "variant", "value"])
+    return pd.concat(rows, ignore_index=True)
+
+
+def group_statistics(long: pd.DataFrame) -> pd.DataFrame:
+    """Per (params, variant): n and every statistic with its CI."""
+    params = [c for c in long.columns if c.startswith("param.")]
+    keys = [*params, "variant"]
+    out = []
+    for key, g in long.groupby(keys, sort=True, dropna=False):
+        key = key if isinstance(key, tuple) else (key,)
+        x = g["value"].to_numpy(dtype=float)
+        x = x[np.isfinite(x)]
+        row = dict(zip(keys, key, strict=True))
+        row["n"] = int(x.size)
+        for i, (name, f) in enumerate(STATISTICS.items()):
+            row[name] = float(f(x)) if x.size else math.nan
+            row[f"{name}_lo"], row[f"{name}_hi"] = bootstrap_ci(x, f, seed=i)
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def paired_comparisons(long: pd.DataFrame) -> pd.DataFrame:
+    """Per (params, variant pair): the mean paired difference a − b over the same runs, its CI."""
+    params = [c for c in long.columns if c.startswith("param.")]
+    wide = long.pivot_table(index=["run_id", *params], columns="variant", values="value")
+    wide = wide.reset_index()
+    variants = [c for c in wide.columns if c not in ("run_id", *params)]
+    out = []
+    groups = wide.groupby(params, sort=True, dropna=False) if params else [((), wide)]
+    for key, g in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        for a, b in itertools.combinations(sorted(variants), 2):
+            d = (g[a] - g[b]).to_numpy(dtype=float)
+            d = d[np.isfinite(d)]
+            lo, hi = bootstrap_ci(d, np.mean)
+            out.append(
+                {
+                    **dict(zip(params, key, strict=True)),
+                    "a": a,
+                    "b": b,
+                    "n_pairs": int(d.size),
+                    "mean_diff": float(np.mean(d)) if d.size else math.nan,
+                    "diff_lo": lo,
+                    "diff_hi": hi,
+                    "a_better_fraction": float(np.mean(d < 0)) if d.size else math.nan,
+                }
+            )
+    return pd.DataFrame(out)
+
+
+# ---- figures --------------------------------------------------------------------------------
+def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written: list[Path] = []
+    params = [c for c in long.columns if c.startswith("param.")]
+    variants = sorted(long["variant"].unique())
+    for p in params:
+        fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
+        for v in variants:
+            g = long[long["variant"] == v]
+            xs, means, los, his = [], [], [], []
+            for x, gg in g.groupby(p, sort=True):
+                vals = gg["value"].to_numpy(dtype=float)
+                xs.append(x)
+                means.append(float(np.nanmean(vals)))
+                lo, hi = bootstrap_ci(vals, np.mean)
+                los.append(lo)
+                his.append(hi)
+            numeric = all(isinstance(x, int | float | np.number) for x in xs)
+            pos = np.asarray(xs, dtype=float) if numeric else np.arange(len(xs))
+            (line,) = ax.plot(pos, means, marker="o", label=v)
+            ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
+            if not numeric:
+                ax.set_xticks(pos, [str(x) for x in xs])
+        ax.set_xlabel(p.removeprefix("param."))
+        ax.set_ylabel(f"{metric} (mean, 95 % CI)")
+        ax.grid(alpha=0.3)
+        ax.legend(title="variant")
+        fig.tight_layout()
+        path = folder / f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png"
+        fig.savefig(path)
+        plt.close(fig)
+        written.append(path)
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
+    for v in variants:
+        vals = np.sort(long.loc[long["variant"] == v, "value"].to_numpy(dtype=float))
+        vals = vals[np.isfinite(vals)]
+        ax.step(vals, np.arange(1, vals.size + 1) / max(vals.size, 1), where="post", label=v)
+    ax.set_xlabel(metric)
+    ax.set_ylabel("fraction of runs ≤ x")
+    ax.grid(alpha=0.3)
+    ax.legend(title="variant")
+    fig.tight_layout()
+    path = folder / f"{metric}_cdf.png"
+    fig.savefig(path)
+    plt.close(fig)
+    written.append(path)
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
+    data = [long.loc[long["variant"] == v, "value"].dropna().to_numpy() for v in variants]
+    ax.boxplot(data, tick_labels=variants)
+    ax.set_ylabel(metric)
+    ax.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    path = folder / f"{metric}_box.png"
+    fig.savefig(path)
+    plt.close(fig)
+    written.append(path)
+    return written
+
+
+def _md_table(df: pd.DataFrame, float_fmt: str = "{:.3f}") -> str:
+    cols = list(df.columns)
+    lines = ["| " + " | ".join(c.removeprefix("param.") for c in cols) + " |"]
+    lines.append("|" + "---|" * len(cols))
+    for _, r in df.iterrows():
+        cells = []
+        for c in cols:
+            v = r[c]
+            cells.append(float_fmt.format(v) if isinstance(v, float) else str(v))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def write_report(out: str | Path, metric: str = "heading_rmse_deg") -> Path:
+    """Write ``out/report/report.md`` and its figures from the campaign's rows; its path.
+
+    Raises:
+        ValueError: No finished run, or no variant has ``metric``.
+    """
+    from twin.campaign.results import load_campaign_results
+
+    out = Path(out)
+    df = load_campaign_results(out)
+    total = len(df)
+    ok = df[df["status"] == "ok"] if total else df
+    if ok.empty:
+        raise ValueError(f"{out}: no finished run to report on ({total} rows on disk)")
+    long = long_table(ok, metric)
+    if long.empty:
+        raise ValueError(
+            f"--metric {metric}: no filter variant has it; the rows have "
+            f"{sorted({c.rsplit('.', 1)[-1] for c in ok.columns if c.startswith(_VARIANT)})}"
+        )
+    folder = out / "report"
+    folder.mkdir(parents=True, exist_ok=True)
+    groups = group_statistics(long)
+    pairs = paired_comparisons(long)
+    figures = _figures(long, metric, folder)
+    groups.to_csv(folder / "groups.csv", index=False)
+    pairs.to_csv(folder / "paired.csv", index=False)
+
+    def with_ci(name: str) -> pd.Series:
+        return groups.apply(
+            lambda r: f"{r[name]:.3f} [{r[name + '_lo']:.3f}, {r[name + '_hi']:.3f}]", axis=1
+        )
+
+    table = groups[[c for c in groups.columns if c.startswith("param.")] + ["variant", "n"]].copy()
+    for name in STATISTICS:
+        table[name] = with_ci(name)
+    ptable = pairs.copy()
+    if not ptable.empty:
+        ptable["a − b"] = ptable.apply(
+            lambda r: f"{r['mean_diff']:+.3f} [{r['diff_lo']:+.3f}, {r['diff_hi']:+.3f}]", axis=1
+        )
+        ptable = ptable[
+            [c for c in ptable.columns if c.startswith("param.")]
+            + ["a", "b", "n_pairs", "a − b", "a_better_fraction"]
+        ]
+    statuses = df["status"].value_counts().to_dict()
+    md = [
+        f"# Campaign report: {metric}",
+        "",
+        f"Rows on disk: {total} ({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))}); "
+        f"the statistics use the {len(ok)} finished runs. Intervals are 95 % percentile "
+        f"bootstrap ({_RESAMPLES} resamples, seeded). Generated by `auv-twin campaign report`.",
+        "",
+        "## Per group",
+        "",
+        _md_table(table),
+        "",
+        "## Paired comparisons (same runs: same seed, same frames)",
+        "",
+        _md_table(ptable) if not ptable.empty else "(one variant only)",
+        "",
+        "## Figures",
+        "",
+        *[f"![{p.stem}]({p.name})" for p in figures],
+        "",
+    ]
+    path = folder / "report.md"
+    path.write_text("\n".join(md))
+    return path
