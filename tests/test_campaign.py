@@ -265,3 +265,37 @@ def test_report_errors_are_one_line(tmp_path: Path, capsys) -> None:
     (tmp_path / "empty").mkdir()
     assert main(["campaign", "report", str(tmp_path / "empty")]) == 2
     assert "no finished run" in capsys.readouterr().err
+
+
+def test_the_shipped_campaigns_validate() -> None:
+    folder = Path(__file__).resolve().parents[1] / "scenarios" / "campaigns"
+    specs = {p.stem: load_campaign(p) for p in sorted(folder.glob("*.toml"))}
+    assert set(specs) >= {"quick", "depth_water"}
+    assert len(specs["quick"].runs) == 10
+    dw = specs["depth_water"]
+    assert len(dw.runs) == 4 * 4 * 20 and len(dw.seeds) >= 20
+    waters = {dict(r.params)["water.jerlov_type"] for r in dw.runs}
+    assert waters == {"I", "II", "1C", "3C"}
+
+
+def test_the_worst_runs_are_flown_again_with_their_recording(tmp_path: Path) -> None:
+    import json
+
+    from rerun.chunk import RrdReader
+
+    spec_path = tmp_path / "keep.toml"
+    spec_path.write_text(
+        SMALL.replace("seeds = 2", 'seeds = 2\nkeep_recordings = 1\nworst_by = "final.east_m"')
+    )
+    spec = load_campaign(spec_path)
+    out = tmp_path / "keep"
+    run_campaign(spec, out, on_message=lambda m: None)
+    kept = list((out / "recordings").glob("*/recording.rrd"))
+    assert len(kept) == 1
+    RrdReader(kept[0]).store()  # a complete, readable recording
+    run_id = kept[0].parent.name
+    row = load_campaign_results(out).set_index("run_id").loc[run_id]
+    m = json.loads((kept[0].parent / "metrics.json").read_text())
+    # Same scenario and seed: the recorded run is the campaign's run.
+    assert m["final"]["depth_m"] == row["metric.final.depth_m"]
+    assert row["metric.final.east_m"] == load_campaign_results(out)["metric.final.east_m"].max()

@@ -184,7 +184,7 @@ def run_campaign(
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
         say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
-    job = _job(spec, out / "recordings" if spec.keep_recordings else None)
+    job = _job(spec, None)
     counts: dict[str, int] = {}
     bar = _bar(len(todo)) if progress else None
     t0 = time.perf_counter()
@@ -221,7 +221,36 @@ def run_campaign(
         if bar is not None:
             bar.close()
         consolidate(out)
+    if spec.keep_recordings:
+        _record_worst(spec, out, job, say)
     return counts
+
+
+def _record_worst(spec: CampaignSpec, out: Path, job: dict[str, Any], say: Callable) -> None:
+    """Re-fly the k worst runs with their recording kept (same scenario and seed: same run).
+
+    Worst: the largest value of ``worst_by`` (a kept metric), by default the largest heading
+    RMSE of any filter variant. Recordings land in ``recordings/<run_id>/``.
+    """
+    from twin.campaign.results import load_campaign_results
+
+    df = load_campaign_results(out)
+    df = df[df["status"] == "ok"]
+    if spec.worst_by:
+        cols = [f"metric.{spec.worst_by}"] if f"metric.{spec.worst_by}" in df.columns else []
+    else:
+        cols = [c for c in df.columns if c.endswith("heading_rmse_deg")]
+    if df.empty or not cols:
+        say(f"keep_recordings: no kept metric {spec.worst_by or '*heading_rmse_deg'} to rank by")
+        return
+    worst = df.assign(_score=df[cols].max(axis=1)).nlargest(spec.keep_recordings, "_score")
+    by_id = {r.run_id: r for r in spec.runs}
+    keep = {**job, "keep_dir": str(out / "recordings")}
+    for run_id in worst["run_id"]:
+        if (out / "recordings" / run_id / "recording.rrd").is_file():
+            continue
+        row = execute_run(by_id[run_id], keep)
+        say(f"kept the recording of run {run_id} ({row['status']})")
 
 
 def _run_pool(todo: list[RunSpec], job: dict, workers: int, record: Callable) -> None:

@@ -57,7 +57,7 @@ COMBINE = ("grid", "zip")
 DISTRIBUTIONS = ("uniform", "normal", "loguniform", "choice")
 _TOP_KEYS = {
     "name", "description", "base", "combine", "seeds", "wall_time_limit_s", "metrics", "set",
-    "sweep", "random_seed", "timeseries", "keep_recordings",
+    "sweep", "random_seed", "timeseries", "keep_recordings", "worst_by",
 }  # fmt: skip
 _NAME = re.compile(r"[a-z0-9_]{1,64}")
 _PATH_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[(?:\d+|\*)\])*)")
@@ -125,6 +125,7 @@ class CampaignSpec:
     timeseries: tuple[str, ...]
     timeseries_rate_hz: float
     keep_recordings: int
+    worst_by: str = ""
     source: str = "<campaign>"
     runs: tuple[RunSpec, ...] = field(default=(), repr=False)
 
@@ -318,6 +319,10 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
     if not (isinstance(keep, int) and not isinstance(keep, bool) and keep >= 0):
         errs.append(f"keep_recordings: {_show(keep)}; allowed: an integer >= 0 (the k worst)")
         keep = 0
+    worst_by = data.get("worst_by", "")
+    if not isinstance(worst_by, str):
+        errs.append(f"worst_by: {_show(worst_by)}; allowed: a kept metric key (dotted)")
+        worst_by = ""
     ts = data.get("timeseries", {})
     ts_keep: tuple[str, ...] = ()
     ts_rate = 1.0
@@ -404,6 +409,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         timeseries=ts_keep,
         timeseries_rate_hz=float(ts_rate),
         keep_recordings=keep,
+        worst_by=worst_by,
         source=source,
         runs=runs,
     )
