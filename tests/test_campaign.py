@@ -276,6 +276,10 @@ def test_the_shipped_campaigns_validate() -> None:
     assert len(dw.runs) == 4 * 4 * 20 and len(dw.seeds) >= 20
     waters = {dict(r.params)["water.jerlov_type"] for r in dw.runs}
     assert waters == {"I", "II", "1C", "3C"}
+    tod = specs["time_of_day"]
+    starts = sorted({r.scenario["start_utc"] for r in tod.runs})
+    assert starts[0] == "2021-09-02T23:00:00Z" and starts[-1] == "2021-09-03T07:00:00Z"
+    assert len(starts) == 9 and len(tod.seeds) == 20
 
 
 def test_the_worst_runs_are_flown_again_with_their_recording(tmp_path: Path) -> None:
@@ -299,3 +303,30 @@ def test_the_worst_runs_are_flown_again_with_their_recording(tmp_path: Path) -> 
     # Same scenario and seed: the recorded run is the campaign's run.
     assert m["final"]["depth_m"] == row["metric.final.depth_m"]
     assert row["metric.final.east_m"] == load_campaign_results(out)["metric.final.east_m"].max()
+
+
+def test_per_run_time_series_are_kept_keyed_by_run_id(tmp_path: Path) -> None:
+    from twin.campaign.results import load_timeseries
+
+    spec = parse_campaign(
+        {
+            "name": "ts",
+            "base": "default",
+            "seeds": [4],
+            "metrics": ["navigation.variants.*.heading_rmse_deg"],
+            "set": {"duration_s": 3.0},
+            "timeseries": {"keep": ["heading_error_deg"], "rate_hz": 1.0},
+        }
+    )
+    out = tmp_path / "ts"
+    assert run_campaign(spec, out) == {"ok": 1}
+    ts = load_timeseries(out)
+    assert set(ts["run_id"]) == {spec.runs[0].run_id}
+    assert {"t", "ins.heading_error_deg", "pol.heading_error_deg", "lig.heading_error_deg"} <= set(
+        ts.columns
+    )
+    np.testing.assert_allclose(ts["t"], [0.1, 1.1, 2.1], atol=1e-9)  # 1 Hz from the 10 Hz truth
+    rmse = float(np.sqrt(np.mean(np.square(ts["lig.heading_error_deg"]))))
+    row = load_campaign_results(out).iloc[0]
+    # The kept samples are the scored ones: their RMSE is of the run's RMSE's size.
+    assert rmse == pytest.approx(row["metric.navigation.variants.lig.heading_rmse_deg"], rel=0.5)
