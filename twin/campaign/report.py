@@ -144,6 +144,13 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     written: list[Path] = []
+
+    def save(fig, name: str) -> None:
+        fig.tight_layout()
+        fig.savefig(folder / name)
+        plt.close(fig)
+        written.append(folder / name)
+
     params = [c for c in long.columns if c.startswith("param.")]
     variants = sorted(long["variant"].unique())
     for p in params:
@@ -168,11 +175,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
         ax.set_ylabel(f"{metric} (mean, 95 % CI)")
         ax.grid(alpha=0.3)
         ax.legend(title="variant")
-        fig.tight_layout()
-        path = folder / f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png"
-        fig.savefig(path)
-        plt.close(fig)
-        written.append(path)
+        save(fig, f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     for v in variants:
         vals = np.sort(long.loc[long["variant"] == v, "value"].to_numpy(dtype=float))
@@ -182,21 +185,13 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     ax.set_ylabel("fraction of runs ≤ x")
     ax.grid(alpha=0.3)
     ax.legend(title="variant")
-    fig.tight_layout()
-    path = folder / f"{metric}_cdf.png"
-    fig.savefig(path)
-    plt.close(fig)
-    written.append(path)
+    save(fig, f"{metric}_cdf.png")
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     data = [long.loc[long["variant"] == v, "value"].dropna().to_numpy() for v in variants]
     ax.boxplot(data, tick_labels=variants)
     ax.set_ylabel(metric)
     ax.grid(alpha=0.3, axis="y")
-    fig.tight_layout()
-    path = folder / f"{metric}_box.png"
-    fig.savefig(path)
-    plt.close(fig)
-    written.append(path)
+    save(fig, f"{metric}_box.png")
     return written
 
 
