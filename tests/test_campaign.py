@@ -330,3 +330,40 @@ def test_per_run_time_series_are_kept_keyed_by_run_id(tmp_path: Path) -> None:
     row = load_campaign_results(out).iloc[0]
     # The kept samples are the scored ones: their RMSE is of the run's RMSE's size.
     assert rmse == pytest.approx(row["metric.navigation.variants.lig.heading_rmse_deg"], rel=0.5)
+
+
+def test_a_worker_that_dies_costs_one_retry_and_the_campaign_completes(tmp_path: Path) -> None:
+    # A real worker death: SIGKILL one of the pool's processes while runs are in flight.
+    import threading
+
+    import psutil
+
+    spec_path = tmp_path / "d.toml"
+    spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 4").replace("2.0\n[[", "6.0\n[["))
+    spec = load_campaign(spec_path)
+    out = tmp_path / "d"
+    result: dict = {}
+    said: list[str] = []
+    t = threading.Thread(
+        target=lambda: result.update(run_campaign(spec, out, workers=2, on_message=said.append))
+    )
+    t.start()
+    me = psutil.Process()
+    victim = None
+    deadline = time.monotonic() + 60
+    while victim is None and time.monotonic() < deadline:
+        # Wait until the workers are busy with runs (the first rows are being written).
+        workers = [p for p in me.children() if "multiprocessing" in " ".join(p.cmdline())]
+        busy = [p for p in workers if p.cpu_percent(interval=0.05) > 20]
+        if len(workers) >= 2 and busy and (out / "runs").is_dir():
+            victim = busy[0]
+        time.sleep(0.1)
+    assert victim is not None
+    victim.kill()
+    t.join(timeout=240)
+    assert not t.is_alive()
+    rows = load_campaign_results(out)
+    assert len(rows) == 8 and rows["run_id"].is_unique
+    # Every run, the ones in flight at the death included, finished on its retry.
+    assert set(rows["status"]) == {"ok"} and result == {"ok": 8}
+    assert any("worker process died" in m for m in said), said

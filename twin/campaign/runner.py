@@ -209,7 +209,7 @@ def run_campaign(
             for r in todo:
                 record(execute_run(r, job))
         else:
-            _run_pool(todo, job, workers, record)
+            _run_pool(todo, job, workers, record, say)
     except KeyboardInterrupt:
         n = sum(counts.values()) + len(spec.runs) - len(todo)
         say(
@@ -253,7 +253,9 @@ def _record_worst(spec: CampaignSpec, out: Path, job: dict[str, Any], say: Calla
         say(f"kept the recording of run {run_id} ({row['status']})")
 
 
-def _run_pool(todo: list[RunSpec], job: dict, workers: int, record: Callable) -> None:
+def _run_pool(
+    todo: list[RunSpec], job: dict, workers: int, record: Callable, say: Callable[[str], None]
+) -> None:
     """The local pool: long-lived workers; a broken pool is rebuilt, its runs retried once."""
     ctx = mp.get_context("spawn")
     pending = list(todo)
@@ -281,6 +283,10 @@ def _run_pool(todo: list[RunSpec], job: dict, workers: int, record: Callable) ->
         finally:
             if broken:
                 _kill(pool)
+                say(
+                    f"a worker process died: {len(pending)} run(s) that were in flight are "
+                    "retried once in a new pool"
+                )
             else:
                 pool.shutdown(wait=True, cancel_futures=True)
         pending.sort(key=lambda r: r.index)
