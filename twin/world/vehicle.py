@@ -59,8 +59,9 @@ class VehicleParams:
     # not fade with speed (only surge and sway do). An earlier version of this file used 5 s.
     t_yaw_s: float = 1.0
     # Fins: each control pair (upper + lower rudder, port + starboard stern plane) is two fins of
-    # S_fin = 0.00665 m² (Prestero 2001, Table 4.x fin geometry; Fossen remus100.py A_r = A_s =
-    # 2 S_fin); both pairs at x = -L/2 (Fossen). An earlier version used one 0.10 x 0.05 m rudder.
+    # S_fin = 0.00665 m², the REMUS fin planform area (Prestero 2001), which Fossen's remus100.py
+    # uses as A_r = A_s = 2 S_fin; both pairs at x = -L/2 (Fossen). An earlier version of this file
+    # used one 0.10 x 0.05 m rudder.
     rudder_area_m2: float = 2 * 0.00665
     rudder_cl_delta: float = 0.5
     stern_area_m2: float = 2 * 0.00665
