@@ -36,6 +36,14 @@ PVS_CHOICES = dataclasses.replace(REMUS100, crossflow_strips=20, prop_torque_on_
 
 RESULTS = Path(__file__).resolve().parent / "results"
 RUDDER_DEG, RPM, RHO, DURATION_S, DT = 15.0, 1525.0, 1026.0, 120.0, 0.01
+ROW_KEYS = (
+    "straight_speed_mps",
+    "straight_heel_deg",
+    "turn_diameter_m",
+    "yaw_rate_deg_s",
+    "turn_speed_mps",
+    "turn_heel_deg",
+)
 
 
 def _circle(e: np.ndarray, n: np.ndarray) -> float:
@@ -147,7 +155,6 @@ def main() -> None:
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "turning_vs_pvs.json").write_text(json.dumps({**meta, **rows}, indent=2) + "\n")
-    keys = list(dataclasses.asdict(_Row()).keys())
     lines = [
         "# REMUS 100: the twin against PythonVehicleSimulator",
         "",
@@ -157,21 +164,11 @@ def main() -> None:
         "| quantity | " + " | ".join(rows) + " |",
         "|---|" + "---|" * len(rows),
     ]
-    for k in keys:
+    for k in ROW_KEYS:
         cells = " | ".join(f"{rows[r].get(k, float('nan')):.3f}" for r in rows)
         lines.append(f"| {k} | {cells} |")
     (RESULTS / "turning_vs_pvs.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-
-
-@dataclasses.dataclass
-class _Row:
-    straight_speed_mps: float = 0.0
-    straight_heel_deg: float = 0.0
-    turn_diameter_m: float = 0.0
-    yaw_rate_deg_s: float = 0.0
-    turn_speed_mps: float = 0.0
-    turn_heel_deg: float = 0.0
 
 
 if __name__ == "__main__":

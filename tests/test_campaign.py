@@ -135,7 +135,7 @@ def test_a_failing_run_and_a_slow_run_are_recorded_and_the_campaign_goes_on(
     small_spec: Path, tmp_path: Path
 ) -> None:
     spec = load_campaign(small_spec)
-    job = _job(spec, None)
+    job = _job(spec)
     broken = RunSpec(99, (), 0, {**spec.runs[0].scenario, "duration_s": "long"})
     row = execute_run(broken, job)
     assert row["status"] == "error" and "duration_s" in row["error"]

@@ -127,8 +127,9 @@ class AuvGymEnv(gym.Env):
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
         ts = self._env.step(np.asarray(action, dtype=np.float64))
         last = ts.last()
-        success = bool(last and ts.discount == 1.0 and self._env.world.plant.t
-                       < self._scenario.duration_s - 1e-9)  # fmt: skip
+        # A last step with discount 1 before the scenario's end is the task's success.
+        before_end = self._env.world.plant.t < self._scenario.duration_s - 1e-9
+        success = bool(last and ts.discount == 1.0 and before_end)
         terminated = bool(last and (ts.discount == 0.0 or success))
         truncated = bool(last and not terminated)
         info = {"truth": self._truth(), "success": success}

@@ -10,7 +10,6 @@ import math
 
 from twin.core.frames import quat_to_dcm
 from twin.onboard.control.autopilot import NavSource, NavState
-from twin.onboard.control.navsource import EstimateNav
 from twin.world.truth import Truth
 
 
@@ -42,4 +41,4 @@ class TruthNav:
         return nav_state_from_truth(self._plant.truth())
 
 
-__all__ = ["EstimateNav", "NavSource", "TruthNav", "nav_state_from_truth"]
+__all__ = ["NavSource", "TruthNav", "nav_state_from_truth"]

@@ -105,16 +105,13 @@ class Simulation:
                     events.append((name, event))
         return events
 
-    def control(self, setpoint: Setpoint | None = None) -> ActuatorCommand:
-        """The vehicle computer's command now: guidance's setpoint (or ``setpoint``), autopilot.
+    def control(self) -> ActuatorCommand:
+        """The vehicle computer's command now: guidance's setpoint, then the autopilot.
 
         Call once per autopilot period (:attr:`autopilot_every` physics steps).
         """
         nav = self.nav.nav_state()
-        if setpoint is None:
-            self.setpoint, self.status = self.guidance.update(nav, self.plant.t)
-        else:
-            self.setpoint = setpoint
+        self.setpoint, self.status = self.guidance.update(nav, self.plant.t)
         return self.autopilot.update(nav, self.setpoint, self.autopilot_every * self.physics_dt)
 
     def step(self, command: ActuatorCommand) -> StepResult:

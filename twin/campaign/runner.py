@@ -114,14 +114,14 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def _job(spec: CampaignSpec, keep_dir: Path | None) -> dict[str, Any]:
+def _job(spec: CampaignSpec) -> dict[str, Any]:
     return {
         "metrics": list(spec.metrics),
         "wall_time_limit_s": spec.wall_time_limit_s,
         "timeseries": list(spec.timeseries),
         "timeseries_rate_hz": spec.timeseries_rate_hz,
         "truth_rate_hz": spec.base.recording.truth_rate_hz,
-        "keep_dir": str(keep_dir) if keep_dir else "",
+        "keep_dir": "",  # no recording; _record_worst sets it for the runs it keeps
     }
 
 
@@ -184,7 +184,7 @@ def run_campaign(
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
         say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
-    job = _job(spec, None)
+    job = _job(spec)
     counts: dict[str, int] = {}
     bar = _bar(len(todo)) if progress else None
     t0 = time.perf_counter()
