@@ -58,7 +58,7 @@ from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
 from sensors.polarimeter.calibration import calibration_from_spec
 from sensors.polarimeter.sky import SkySpec, sky_radiance
-from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunTracker
+from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
 from sensors.registry import register
 from twin.core.calibration import CameraCalibration
 
@@ -462,7 +462,7 @@ class Polarimeter(Sensor):
         self.optics = OpticsConfig()
         self._column: water_mod.WaterColumn | None = None
         self._tracker: SunTracker | None = None
-        self._tracker_place: tuple[float, float] | None = None
+        self._tracker_place: tuple[int, int] | None = None
         self._dofp: mosaic_mod.DoFPSensor | None = None
         self._waves: surface_mod.WaveSurface | None = None
         self._last_t: float | None = None
@@ -529,15 +529,18 @@ class Polarimeter(Sensor):
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
         self._last_t = None
         self.truth = None
-        self._sun_for(world)
 
-    def _sun_for(self, world: WorldView) -> SunTracker:
-        place = (math.degrees(world.latitude_rad), math.degrees(world.longitude_rad))
-        if self._tracker is None or self._tracker_place != place:
-            lon = ((place[1] + 180.0) % 360.0) - 180.0
-            self._tracker = SunTracker(place[0], lon)
-            self._tracker_place = place
-        return self._tracker
+    def _sun_for(self, world: WorldView) -> SunPosition:
+        lat = math.degrees(world.latitude_rad)
+        lon = ((math.degrees(world.longitude_rad) + 180.0) % 360.0) - 180.0
+        # One tracker per 0.01° cell (≈ 1 km); within it the direction is turned exactly to the
+        # camera's own place (SunTracker's lat/lon arguments). A tracker per exact place would
+        # pay an SPA batch (~12 ms) on every frame of a moving vehicle.
+        cell = (round(lat * 100), round(lon * 100))
+        if self._tracker is None or self._tracker_place != cell:
+            self._tracker = SunTracker(cell[0] / 100, cell[1] / 100)
+            self._tracker_place = cell
+        return self._tracker(world.utc, lat, lon)
 
     def sample(self, world: WorldView, rng: np.random.Generator) -> dict[str, np.ndarray]:
         if self._dofp is None:
@@ -546,7 +549,7 @@ class Polarimeter(Sensor):
         pos, c_cn = world.site_pose(self.site)
         c_cn = np.asarray(c_cn, dtype=np.float64)
         depth = float(world.surface_z_m - pos[2])
-        sun = self._sun_for(world)(world.utc)
+        sun = self._sun_for(world)
         if self._waves is not None and self._last_t is not None:
             self._waves.step(max(world.t - self._last_t, 0.0))
         self._last_t = world.t

@@ -40,3 +40,21 @@ def test_naive_times_are_utc_and_bad_places_name_the_field() -> None:
         sun_direction_enu(aware, 95.0, 0.0)
     with pytest.raises(ValueError, match="longitude_deg"):
         sun_direction_enu(aware, 0.0, float("nan"))
+
+
+@pytest.mark.parametrize("elevation_case", ["morning", "noon"])
+def test_a_moving_observer_gets_its_own_place_without_a_new_spa_batch(elevation_case: str) -> None:
+    """Within a tracker's 0.01° cell the direction is turned to the observer's exact place."""
+    from twin.core.ephemeris import SunTracker
+
+    hour = 23 if elevation_case == "morning" else 4  # UTC; Weihai is UTC+8
+    utc = dt.datetime(2021, 9, 3, hour, 10, tzinfo=dt.UTC)
+    tracker = SunTracker(37.54, 122.06)
+    for dlat, dlon in [(0.0049, 0.0), (0.0, -0.0049), (0.004, 0.004), (0.03, 0.05)]:
+        lat, lon = 37.54 + dlat, 122.06 + dlon
+        moved = tracker(utc, lat, lon).direction_enu
+        exact = sun_position(utc, lat, lon).direction_enu
+        assert _angle_deg(moved, exact) < 1e-4
+        # ... and the correction is not a no-op: 500 m already turns the local axes by > 1e-3°.
+        assert _angle_deg(tracker(utc).direction_enu, exact) > 1e-3
+    assert len(tracker._knots) == tracker.batch  # one SPA batch served every place

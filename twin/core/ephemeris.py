@@ -231,8 +231,21 @@ class SunTracker:
                 self._knots[kk] = d
         return self._knots[k]
 
-    def __call__(self, utc: dt.datetime | np.datetime64 | pd.Timestamp | str) -> SunPosition:
-        """The apparent sun position at one instant (interpolated between SPA knots)."""
+    def __call__(
+        self,
+        utc: dt.datetime | np.datetime64 | pd.Timestamp | str,
+        lat_deg: float | None = None,
+        lon_deg: float | None = None,
+    ) -> SunPosition:
+        """The apparent sun position at one instant (interpolated between SPA knots).
+
+        Args:
+            utc: The instant.
+            lat_deg: Where the observer is now, if not at the tracker's place (a moving vehicle):
+                the direction is turned from the tracker's local ENU frame into the observer's
+                (:func:`move_enu`). Must be given together with ``lon_deg``.
+            lon_deg: Longitude of the observer, degrees East.
+        """
         idx, scalar = _to_utc_index(utc)
         if not scalar:
             raise ValueError("SunTracker takes one instant; use sun_position() for many")
@@ -241,11 +254,38 @@ class SunTracker:
         k = math.floor(q)
         w = q - k
         d = (1.0 - w) * self._knot(k) + w * self._knot(k + 1)
+        if lat_deg is not None and lon_deg is not None:
+            d = move_enu(d, self.lat_deg, self.lon_deg, lat_deg, lon_deg)
         d /= np.linalg.norm(d)
         zen = math.atan2(math.hypot(d[0], d[1]), d[2])
         az = math.atan2(d[0], d[1]) % (2.0 * math.pi)
         elev = math.pi / 2 - zen
         return SunPosition(idx, zen, az, elev, d, elev < NIGHT_ELEVATION_RAD)
+
+
+def _enu_axes(lat_deg: float, lon_deg: float) -> NDArray[np.float64]:
+    """Rows: the East, North and Up unit vectors of the geodetic ENU frame, in ECEF."""
+    la, lo = math.radians(lat_deg), math.radians(lon_deg)
+    sla, cla, slo, clo = math.sin(la), math.cos(la), math.sin(lo), math.cos(lo)
+    return np.array([[-slo, clo, 0.0], [-sla * clo, -sla * slo, cla], [cla * clo, cla * slo, sla]])
+
+
+def move_enu(
+    d_enu: NDArray[np.float64], lat0_deg: float, lon0_deg: float, lat1_deg: float, lon1_deg: float
+) -> NDArray[np.float64]:
+    """A direction to a far body seen from place 0, expressed in the ENU frame of place 1.
+
+    The sun is 1.5e11 m away, so moving the observer by kilometres leaves its direction fixed in
+    the Earth frame (topocentric parallax changes by < 1e-9° per km) and only the local axes turn.
+    What this does not carry over is the change of refraction with the new elevation: the local
+    vertical turns by 0.009° per km, and refraction's slope is at most ~0.2 °/° near the horizon
+    (Bennett 1982), so the apparent position is off by < 2e-3° per km at the horizon and < 1e-5°
+    per km above 20° elevation. Trackers are kept per 0.01° cell (≈ 1 km), see
+    :func:`sun_direction_enu`.
+    """
+    if lat0_deg == lat1_deg and lon0_deg == lon1_deg:
+        return np.array(d_enu, dtype=np.float64)
+    return _enu_axes(lat1_deg, lon1_deg) @ (_enu_axes(lat0_deg, lon0_deg).T @ d_enu)
 
 
 # ---- the vehicle computer's view: a tracker per declared place --------------------------------
@@ -259,17 +299,18 @@ def _place(latitude_deg: float, longitude_deg: float) -> tuple[int, int]:
     if not (math.isfinite(longitude_deg) and -180.0 <= longitude_deg <= 360.0):
         raise ValueError(f"longitude_deg: {longitude_deg!r}; allowed [-180, 360]")
     lon = (longitude_deg + 180.0) % 360.0 - 180.0
-    # Rounded to 1e-4° (11 m) for the tracker cache: the sun's direction changes by less than
-    # 1e-4° over that distance.
-    return round(latitude_deg * 1e4), round(lon * 1e4)
+    # One tracker per 0.01° cell (about 1 km): a vehicle crossing cells pays one SPA batch
+    # (~12 ms) per kilometre, and within a cell the direction is turned exactly to the
+    # observer's own place (move_enu). Keyed by 1e-4° before, which cost a batch every 11 m.
+    return round(latitude_deg * 100), round(lon * 100)
 
 
 def sun_zenith_azimuth(
     utc: dt.datetime, latitude_deg: float, longitude_deg: float
 ) -> tuple[float, float]:
     """Apparent zenith and compass azimuth (clockwise from North) of the sun, rad (exact SPA)."""
-    lat, lon = _place(latitude_deg, longitude_deg)
-    pos = sun_position(utc, lat * 1e-4, lon * 1e-4)
+    _place(latitude_deg, longitude_deg)
+    pos = sun_position(utc, latitude_deg, (longitude_deg + 180.0) % 360.0 - 180.0)
     return float(pos.apparent_zenith_rad), float(pos.azimuth_rad)
 
 
@@ -282,5 +323,6 @@ def sun_direction_enu(
     if tracker is None:
         if len(_trackers) > 1000:
             _trackers.clear()
-        tracker = _trackers[key] = SunTracker(key[0] * 1e-4, key[1] * 1e-4)
-    return np.asarray(tracker(utc).direction_enu, dtype=np.float64)
+        tracker = _trackers[key] = SunTracker(key[0] * 1e-2, key[1] * 1e-2)
+    lon = (longitude_deg + 180.0) % 360.0 - 180.0
+    return np.asarray(tracker(utc, latitude_deg, lon).direction_enu, dtype=np.float64)
