@@ -153,9 +153,10 @@ def _cmd_campaign_validate(args: argparse.Namespace) -> int:
             status = 1
         else:
             axes = ", ".join(f"{a.name} ({len(a.values)})" for a in spec.axes) or "no sweep"
+            what = f"base {spec.base.name}" if spec.base is not None else f"trial {spec.trial}"
             print(
                 f"{f}: ok ({spec.name}: {len(spec.runs)} runs = {spec.combine} of {axes} "
-                f"x {len(spec.seeds)} seeds; base {spec.base.name})"
+                f"x {len(spec.seeds)} seeds; {what})"
             )
     return status
 
@@ -273,8 +274,9 @@ def build_parser() -> argparse.ArgumentParser:
     cp.add_argument("dir", help="a campaign's results folder")
     cp.add_argument(
         "--metric",
-        default="heading_rmse_deg",
-        help="the per-variant metric to report (default: heading_rmse_deg)",
+        default=None,
+        help="the per-variant metric to report (default: heading_rmse_deg for flights, "
+        "error_deg for the MOI study)",
     )
     cp.set_defaults(func=_cmd_campaign_report)
     return p

@@ -13,6 +13,7 @@ simulate exactly the same thing for the same scenario and seed.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -35,6 +36,7 @@ from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, Veh
 from twin.world.assembly import build_current, build_plant, build_suite, optics_config
 from twin.world.hydrodynamics import Hydrodynamics
 from twin.world.plant import Plant
+from twin.world.vehicle import VehicleParams
 
 # Order of the root seed's children. Append new consumers at the end: existing streams then stay
 # the same when a new stochastic component is added.
@@ -149,7 +151,14 @@ def propeller_map(sim_plant: Plant) -> PropellerMap:
     the plant's own object: the autopilot knows the curve the vehicle was sold with.
     """
     p = sim_plant.params
-    declared = Hydrodynamics(p, sim_plant.config.water_density_kg_m3, sim_plant.gravity_mps2)
+    return _propeller_map(p, sim_plant.config.water_density_kg_m3, sim_plant.gravity_mps2)
+
+
+@functools.lru_cache(maxsize=32)
+def _propeller_map(p: VehicleParams, density: float, gravity: float) -> PropellerMap:
+    # 401 steady-speed root solves, ~1.1 s: cached per process, so a campaign worker pays it once
+    # per vehicle and water, not once per run (the map is immutable; the inputs frozen).
+    declared = Hydrodynamics(p, density, gravity)
     top = declared.steady_speed_mps(p.prop_max_rpm / 60.0)
     speeds = np.linspace(0.0, top, 401)
     return PropellerMap(

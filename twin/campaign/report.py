@@ -26,7 +26,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-_VARIANT = "metric.navigation.variants."
+# Where a run's per-variant metrics live: a flight's filter variants, a study trial's methods.
+_VARIANT_PREFIXES = ("metric.navigation.variants.", "metric.methods.")
 _CONFIDENCE = 0.95
 _RESAMPLES = 2000
 
@@ -68,21 +69,27 @@ def bootstrap_ci(x: Sequence[float], statistic: Callable, seed: int = 0) -> tupl
 
 def variants_of(df: pd.DataFrame, metric: str) -> list[str]:
     """Filter variants with a ``metric`` column (e.g. ``heading_rmse_deg``)."""
-    out = []
+    return sorted(_variant_columns(df, metric))
+
+
+def _variant_columns(df: pd.DataFrame, metric: str) -> dict[str, str]:
+    """{variant: column} of ``metric`` under any of the variant prefixes."""
+    out = {}
     for c in df.columns:
-        if c.startswith(_VARIANT) and c.endswith("." + metric):
-            out.append(c[len(_VARIANT) : -len(metric) - 1])
-    return sorted(out)
+        for prefix in _VARIANT_PREFIXES:
+            if c.startswith(prefix) and c.endswith("." + metric):
+                out[c[len(prefix) : -len(metric) - 1]] = c
+    return out
 
 
 def long_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
     """One row per (run, variant): run_id, seed, the params, variant, value."""
     params = [c for c in df.columns if c.startswith("param.")]
     rows = []
-    for v in variants_of(df, metric):
+    for v, col in sorted(_variant_columns(df, metric).items()):
         part = df[["run_id", "seed", *params]].copy()
         part["variant"] = v
-        part["value"] = df[f"{_VARIANT}{v}.{metric}"].astype(float)
+        part["value"] = df[col].astype(float)
         rows.append(part)
     if not rows:
         return pd.DataFrame(columns=["run_id", "seed", *params, "variant", "value"])
@@ -153,6 +160,11 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
 
     params = [c for c in long.columns if c.startswith("param.")]
     variants = sorted(long["variant"].unique())
+    # Values over decades (the MOI study: 1e-6° for PATZ without noise, 1° with): a log axis.
+    pos_vals = long["value"].to_numpy(dtype=float)
+    pos_vals = pos_vals[np.isfinite(pos_vals)]
+    log = bool(pos_vals.size and pos_vals.min() > 0 and pos_vals.max() / pos_vals.min() > 1e3)
+    scale = "log" if log else "linear"
     for p in params:
         fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
         for v in variants:
@@ -173,6 +185,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
                 ax.set_xticks(pos, [str(x) for x in xs])
         ax.set_xlabel(p.removeprefix("param."))
         ax.set_ylabel(f"{metric} (mean, 95 % CI)")
+        ax.set_yscale(scale)
         ax.grid(alpha=0.3)
         ax.legend(title="variant")
         save(fig, f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
@@ -182,6 +195,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
         vals = vals[np.isfinite(vals)]
         ax.step(vals, np.arange(1, vals.size + 1) / max(vals.size, 1), where="post", label=v)
     ax.set_xlabel(metric)
+    ax.set_xscale(scale)
     ax.set_ylabel("fraction of runs ≤ x")
     ax.grid(alpha=0.3)
     ax.legend(title="variant")
@@ -189,6 +203,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     data = [long.loc[long["variant"] == v, "value"].dropna().to_numpy() for v in variants]
     ax.boxplot(data, tick_labels=variants)
+    ax.set_yscale(scale)
     ax.set_ylabel(metric)
     ax.grid(alpha=0.3, axis="y")
     save(fig, f"{metric}_box.png")
@@ -208,8 +223,11 @@ def _md_table(df: pd.DataFrame, float_fmt: str = "{:.3f}") -> str:
     return "\n".join(lines)
 
 
-def write_report(out: str | Path, metric: str = "heading_rmse_deg") -> Path:
+def write_report(out: str | Path, metric: str | None = None) -> Path:
     """Write ``out/report/report.md`` and its figures from the campaign's rows; its path.
+
+    ``metric`` None: each filter variant's ``heading_rmse_deg`` for a flight campaign, each
+    method's ``error_deg`` for a study trial's (the MOI noise study).
 
     Raises:
         ValueError: No finished run, or no variant has ``metric``.
@@ -222,12 +240,12 @@ def write_report(out: str | Path, metric: str = "heading_rmse_deg") -> Path:
     ok = df[df["status"] == "ok"] if total else df
     if ok.empty:
         raise ValueError(f"{out}: no finished run to report on ({total} rows on disk)")
+    if metric is None:
+        metric = "heading_rmse_deg" if _variant_columns(ok, "heading_rmse_deg") else "error_deg"
     long = long_table(ok, metric)
     if long.empty:
-        raise ValueError(
-            f"--metric {metric}: no filter variant has it; the rows have "
-            f"{sorted({c.rsplit('.', 1)[-1] for c in ok.columns if c.startswith(_VARIANT)})}"
-        )
+        have = {c.rsplit(".", 1)[-1] for c in ok.columns if c.startswith(tuple(_VARIANT_PREFIXES))}
+        raise ValueError(f"--metric {metric}: no variant has it; the rows have {sorted(have)}")
     folder = out / "report"
     folder.mkdir(parents=True, exist_ok=True)
     groups = group_statistics(long)
@@ -238,7 +256,7 @@ def write_report(out: str | Path, metric: str = "heading_rmse_deg") -> Path:
 
     def with_ci(name: str) -> pd.Series:
         return groups.apply(
-            lambda r: f"{r[name]:.3f} [{r[name + '_lo']:.3f}, {r[name + '_hi']:.3f}]", axis=1
+            lambda r: f"{r[name]:.4g} [{r[name + '_lo']:.4g}, {r[name + '_hi']:.4g}]", axis=1
         )
 
     table = groups[[c for c in groups.columns if c.startswith("param.")] + ["variant", "n"]].copy()
@@ -247,7 +265,7 @@ def write_report(out: str | Path, metric: str = "heading_rmse_deg") -> Path:
     ptable = pairs.copy()
     if not ptable.empty:
         ptable["a − b"] = ptable.apply(
-            lambda r: f"{r['mean_diff']:+.3f} [{r['diff_lo']:+.3f}, {r['diff_hi']:+.3f}]", axis=1
+            lambda r: f"{r['mean_diff']:+.4g} [{r['diff_lo']:+.4g}, {r['diff_hi']:+.4g}]", axis=1
         )
         ptable = ptable[
             [c for c in ptable.columns if c.startswith("param.")]

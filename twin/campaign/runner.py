@@ -19,6 +19,7 @@ worker count or the order runs finish in.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import functools
 import json
 import multiprocessing as mp
 import signal
@@ -40,6 +41,7 @@ from twin.campaign.results import (
     write_timeseries,
 )
 from twin.campaign.spec import CampaignSpec, RunSpec
+from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
 
 
 class _WallTimeExceeded(Exception):
@@ -79,10 +81,13 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
     use_alarm = hasattr(signal, "SIGALRM") and threading.current_thread() is threading.main_thread()
     t0 = time.perf_counter()
     try:
-        sc = scenarios.parse_scenario(run.scenario, run.run_id)
         if use_alarm:
             signal.signal(signal.SIGALRM, _on_alarm)
             signal.setitimer(signal.ITIMER_REAL, limit)
+        if job.get("trial", SCENARIO) != SCENARIO:
+            metrics = _study(job["trial"]).run(run.scenario["params"], run.seed)
+            return _finish(row, metrics, job, t0, series)
+        sc = scenarios.parse_scenario(run.scenario, run.run_id)
         keep = job["keep_dir"]
         with tempfile.TemporaryDirectory(prefix="auv-twin-run-") as tmp:
             out = Path(keep) / run.run_id if keep else Path(tmp)
@@ -95,13 +100,7 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
                 record=bool(keep),
                 on_scored=keep_series,
             )
-        row.update({f"metric.{k}": v for k, v in flatten_metrics(metrics, job["metrics"]).items()})
-        if not metrics.get("complete", False):
-            row["status"], row["error"] = "error", str(metrics.get("error", metrics["status"]))
-        else:
-            bad = has_nan(row)
-            if bad:
-                row["status"], row["error"] = "nan", f"non-finite metrics: {bad[:5]}"
+        return _finish(row, metrics, job, t0, series)
     except _WallTimeExceeded:
         row["status"], row["error"] = "timeout", f"passed the wall-time limit of {limit:g} s"
     except Exception as exc:  # the run's failure is data; the campaign goes on
@@ -114,13 +113,40 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
+def _finish(
+    row: dict[str, Any], metrics: Any, job: dict[str, Any], t0: float, series: dict[str, list]
+) -> dict[str, Any]:
+    """A finished trial's row: its kept metrics, flattened, and its status."""
+    if not isinstance(metrics, dict):
+        row["status"], row["error"] = "error", f"the trial returned {type(metrics).__name__}"
+    else:
+        flat = flatten_metrics(metrics, job["metrics"])
+        row.update({f"metric.{k}": v for k, v in flat.items()})
+        if not metrics.get("complete", True):
+            row["status"] = "error"
+            row["error"] = str(metrics.get("error", metrics.get("status", "incomplete")))
+        else:
+            bad = has_nan(row)
+            if bad:
+                row["status"], row["error"] = "nan", f"non-finite metrics: {bad[:5]}"
+    row["wall_time_s"] = time.perf_counter() - t0
+    row["_series"] = series
+    return row
+
+
+@functools.lru_cache(maxsize=8)
+def _study(name: str) -> StudyTrial:
+    return load_trial(name)
+
+
 def _job(spec: CampaignSpec) -> dict[str, Any]:
     return {
         "metrics": list(spec.metrics),
         "wall_time_limit_s": spec.wall_time_limit_s,
         "timeseries": list(spec.timeseries),
         "timeseries_rate_hz": spec.timeseries_rate_hz,
-        "truth_rate_hz": spec.base.recording.truth_rate_hz,
+        "truth_rate_hz": spec.base.recording.truth_rate_hz if spec.base is not None else 0.0,
+        "trial": spec.trial,
         "keep_dir": "",  # no recording; _record_worst sets it for the runs it keeps
     }
 
@@ -256,40 +282,75 @@ def _record_worst(spec: CampaignSpec, out: Path, job: dict[str, Any], say: Calla
 def _run_pool(
     todo: list[RunSpec], job: dict, workers: int, record: Callable, say: Callable[[str], None]
 ) -> None:
-    """The local pool: long-lived workers; a broken pool is rebuilt, its runs retried once."""
+    """The local pool: long-lived workers; a broken pool is rebuilt, its runs retried once.
+
+    The runs in flight when a worker died are retried one at a time, each in a worker of its
+    own (:func:`_run_alone`); a run that dies there too is recorded as "failed".
+
+    At most ``workers`` runs are submitted at a time, so the runs a dying worker takes down with
+    the pool (every submitted one) are the runs in flight, not the whole queue: a second crash
+    later in a campaign costs its own in-flight runs a retry, not every run still queued.
+    """
     ctx = mp.get_context("spawn")
-    pending = list(todo)
-    tries: dict[str, int] = {}
-    while pending:
+    queue = list(todo)
+    queue.reverse()  # pop() from the end: the runs go in index order
+    while queue:
         pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
-        futures = {pool.submit(execute_run, r, job): r for r in pending}
-        pending = []
+        futures: dict[cf.Future, RunSpec] = {}
+        retry: list[RunSpec] = []
         broken = False
         try:
-            for fut in cf.as_completed(futures):
-                r = futures[fut]
-                try:
-                    record(fut.result())
-                except BrokenProcessPool:
-                    broken = True
-                    tries[r.run_id] = tries.get(r.run_id, 0) + 1
-                    if tries[r.run_id] >= 2:
-                        record(_failed(r, "the worker process died twice (crash or out of memory)"))
-                    else:
-                        pending.append(r)
+            while (queue or futures) and not broken:
+                while queue and len(futures) < workers:
+                    r = queue.pop()
+                    futures[pool.submit(execute_run, r, job)] = r
+                finished, _ = cf.wait(futures, return_when=cf.FIRST_COMPLETED)
+                for fut in finished:
+                    r = futures.pop(fut)
+                    try:
+                        record(fut.result())
+                    except BrokenProcessPool:
+                        broken = True
+                        retry.append(r)
+            if broken:  # the other runs in flight died with the pool too
+                for fut, r in futures.items():
+                    try:
+                        record(fut.result(timeout=0))
+                    except (BrokenProcessPool, cf.TimeoutError, cf.CancelledError):
+                        retry.append(r)
         except KeyboardInterrupt:
             _kill(pool)
             raise
         finally:
             if broken:
                 _kill(pool)
-                say(
-                    f"a worker process died: {len(pending)} run(s) that were in flight are "
-                    "retried once in a new pool"
-                )
             else:
                 pool.shutdown(wait=True, cancel_futures=True)
-        pending.sort(key=lambda r: r.index)
+        if retry:
+            say(
+                f"a worker process died: the {len(retry)} run(s) in flight are retried once, "
+                "each alone in a new worker, so that only the run that kills it is marked failed"
+            )
+        for r in sorted(retry, key=lambda r: r.index):
+            record(_run_alone(r, job, ctx))
+
+
+def _run_alone(r: RunSpec, job: dict, ctx: Any) -> dict[str, Any]:
+    """A run's retry in a worker of its own: a second death there is the run's own doing.
+
+    A dying worker takes down every run in flight in its pool, and the pool cannot say whose
+    run killed it; alone, a run that dies again is the culprit and the others are innocent.
+    """
+    pool = cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_worker_init)
+    try:
+        return pool.submit(execute_run, r, job).result()
+    except BrokenProcessPool:
+        return _failed(r, "the worker process died twice (crash or out of memory)")
+    except KeyboardInterrupt:
+        _kill(pool)
+        raise
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _kill(pool: cf.ProcessPoolExecutor) -> None:

@@ -52,12 +52,13 @@ import numpy as np
 import scenarios
 from scenarios import ScenarioError
 from scenarios.schema import Scenario
+from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
 
 COMBINE = ("grid", "zip")
 DISTRIBUTIONS = ("uniform", "normal", "loguniform", "choice")
 _TOP_KEYS = {
     "name", "description", "base", "combine", "seeds", "wall_time_limit_s", "metrics", "set",
-    "sweep", "random_seed", "timeseries", "keep_recordings", "worst_by",
+    "sweep", "random_seed", "timeseries", "keep_recordings", "worst_by", "trial",
 }  # fmt: skip
 _NAME = re.compile(r"[a-z0-9_]{1,64}")
 _PATH_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[(?:\d+|\*)\])*)")
@@ -115,7 +116,7 @@ class CampaignSpec:
 
     name: str
     description: str
-    base: Scenario
+    base: Scenario | None  # None for a study trial
     combine: str
     seeds: tuple[int, ...]
     axes: tuple[Axis, ...]
@@ -128,6 +129,7 @@ class CampaignSpec:
     worst_by: str = ""
     source: str = "<campaign>"
     runs: tuple[RunSpec, ...] = field(default=(), repr=False)
+    trial: str = SCENARIO  # "scenario" or a study trial (twin.campaign.trials)
 
     def __len__(self) -> int:
         return len(self.runs)
@@ -339,10 +341,27 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
             errs.append(f"timeseries.rate_hz: {_show(ts_rate)}; allowed: (0, 10]")
             ts_rate = 1.0
 
+    trial_name = data.get("trial", SCENARIO)
+    study: StudyTrial | None = None
+    if trial_name != SCENARIO:
+        if not isinstance(trial_name, str):
+            errs.append(f"trial: {_show(trial_name)}; allowed: {SCENARIO!r} or a study trial name")
+        else:
+            try:
+                study = load_trial(trial_name)
+            except ValueError as exc:
+                errs.append(f"trial: {exc}")
+        if "base" in data:
+            errs.append(f"base: {_show(data['base'])}; allowed: none for a study trial")
+        if data.get("timeseries") or data.get("keep_recordings"):
+            errs.append("timeseries, keep_recordings: allowed only for scenario trials")
+
     # The base scenario.
     base_raw = data.get("base")
     base: Scenario | None = None
-    if not isinstance(base_raw, str):
+    if trial_name != SCENARIO:
+        pass
+    elif not isinstance(base_raw, str):
         errs.append(f"base: {_show(base_raw)}; allowed: a shipped scenario name or a .toml path")
     else:
         target = base_raw
@@ -393,9 +412,12 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         )
     if errs:
         raise CampaignError(errs, source)
-    assert base is not None and isinstance(name, str)
-
-    runs = _resolve(base, axes, combine, seeds, fixed, source)
+    assert isinstance(name, str)
+    if study is not None:
+        runs = _resolve_study(study, axes, combine, seeds, fixed, source)
+    else:
+        assert base is not None
+        runs = _resolve(base, axes, combine, seeds, fixed, source)
     return CampaignSpec(
         name=name,
         description=description,
@@ -412,6 +434,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         worst_by=worst_by,
         source=source,
         runs=runs,
+        trial=str(trial_name) if study is not None else SCENARIO,
     )
 
 
@@ -427,6 +450,47 @@ def _flatten_set(t: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]
     return out
 
 
+def _combos(axes: Sequence[Axis], combine: str, n_seeds: int, source: str) -> list[tuple]:
+    if not axes:
+        return [()]
+    if combine == "grid":
+        combos = list(itertools.product(*[a.values for a in axes]))
+    else:
+        combos = list(zip(*[a.values for a in axes], strict=True))
+    if len(combos) * n_seeds > 1_000_000:
+        raise CampaignError([f"{len(combos) * n_seeds} runs; allowed: at most 1000000"], source)
+    return combos
+
+
+def _resolve_study(study: StudyTrial, axes, combine, seeds, fixed, source) -> tuple[RunSpec, ...]:
+    """Every run of a study trial: its defaults with [set] and the swept values, checked."""
+    errs: list[str] = []
+    known = sorted(study.defaults)
+    for path in [p for p, _ in fixed] + [p for a in axes for p in a.paths]:
+        if known and path not in study.defaults:
+            errs.append(f"{path}: not a parameter of trial {study.name!r}; allowed: {known}")
+    if errs:
+        raise CampaignError(errs, source)
+    base = {**copy.deepcopy(dict(study.defaults)), **dict(fixed)}
+    runs: list[RunSpec] = []
+    for combo in _combos(axes, combine, len(seeds), source):
+        params = [(a.name, v) for a, v in zip(axes, combo, strict=True)]
+        resolved = {**base, **{p: v for a, v in zip(axes, combo, strict=True) for p in a.paths}}
+        bad = study.check(resolved)
+        if bad:
+            where = ", ".join(f"{k} = {_show(v)}" for k, v in params) or "the [set] table"
+            errs.append(f"run with {where}: " + "; ".join(bad))
+            if len(errs) > 20:
+                break
+            continue
+        config = {"trial": study.name, "params": resolved}
+        for seed in seeds:
+            runs.append(RunSpec(len(runs), tuple(params), seed, config))
+    if errs:
+        raise CampaignError(errs, source)
+    return tuple(runs)
+
+
 def _resolve(base, axes, combine, seeds, fixed, source) -> tuple[RunSpec, ...]:
     """Every run: the base with [set] and the swept values applied, parsed as a scenario."""
     base_dict = base.to_dict()
@@ -438,16 +502,7 @@ def _resolve(base, axes, combine, seeds, fixed, source) -> tuple[RunSpec, ...]:
             errs.append(f"set.{path}: {exc.args[0]}")
     if errs:
         raise CampaignError(errs, source)
-    if axes:
-        combos = (
-            list(itertools.product(*[a.values for a in axes]))
-            if combine == "grid"
-            else list(zip(*[a.values for a in axes], strict=True))
-        )
-    else:
-        combos = [()]
-    if len(combos) * len(seeds) > 1_000_000:
-        raise CampaignError([f"{len(combos) * len(seeds)} runs; allowed: at most 1000000"], source)
+    combos = _combos(axes, combine, len(seeds), source)
     runs: list[RunSpec] = []
     checked: dict[str, dict[str, Any]] = {}
     for combo in combos:

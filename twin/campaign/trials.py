@@ -1,0 +1,70 @@
+"""Trial kinds a campaign can run: a scenario (the default) or a registered study trial.
+
+A *scenario* trial flies one resolved scenario with one seed (:func:`twin.app.run.run_scenario`).
+A *study* trial is a function of a parameter table and a seed that returns a metrics mapping,
+for studies that are not a flight: the MOI paper's noise study runs one random solar azimuth
+through the three axis methods on an ideal imager (:mod:`twin.campaign.moi_noise`). The campaign
+machinery (sweeps, seeds, run ids, workers, Ray, resume, reports) is the same for both.
+
+A study is named in a spec by ``trial = "<name>"`` (the registry below) or
+``trial = "package.module:function"`` for a user's own, importable in every worker. Its
+parameters are the study's ``defaults`` overridden by ``[set]`` and the sweep axes (plain
+names); ``check`` names every bad parameter before anything runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+#: The trial kind of a spec without ``trial``.
+SCENARIO = "scenario"
+
+
+@dataclass(frozen=True)
+class StudyTrial:
+    """A study trial: ``run(params, seed) -> metrics`` with its defaults and checks.
+
+    Attributes:
+        name: How a spec names it.
+        run: One trial; deterministic in (params, seed); returns a JSON-able metrics mapping
+            (nested tables are flattened to dotted columns like a run's metrics.json).
+        defaults: Every parameter and its default; a spec may set or sweep only these.
+        check: Errors for a parameter table (each names the parameter, the value and what is
+            allowed); empty when the table is valid.
+    """
+
+    name: str
+    run: Callable[[Mapping[str, Any], int], Mapping[str, Any]]
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    check: Callable[[Mapping[str, Any]], list[str]] = field(default=lambda _p: [])
+
+
+_REGISTRY: dict[str, str] = {
+    "moi_noise": "twin.campaign.moi_noise:TRIAL",
+}
+
+
+def load_trial(name: str) -> StudyTrial:
+    """The study trial of a spec's ``trial`` value.
+
+    Raises:
+        ValueError: Unknown name, or a ``module:attr`` that does not import or is not a trial.
+    """
+    target = _REGISTRY.get(name, name)
+    if ":" not in target:
+        raise ValueError(
+            f"{name!r}; allowed: {SCENARIO!r}, one of {sorted(_REGISTRY)}, or 'package.module:name'"
+        )
+    module, _, attr = target.partition(":")
+    try:
+        obj = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"{name!r} does not import: {exc}") from None
+    if isinstance(obj, StudyTrial):
+        return obj
+    if callable(obj):  # a bare function: no defaults, any parameters
+        return StudyTrial(name, obj)
+    raise ValueError(f"{name!r} is not a StudyTrial or a function")
