@@ -144,6 +144,23 @@ def paired_comparisons(long: pd.DataFrame) -> pd.DataFrame:
 
 
 # ---- figures --------------------------------------------------------------------------------
+def _numeric(col: pd.Series) -> bool:
+    return all(isinstance(x, int | float | np.number) and not isinstance(x, bool) for x in col)
+
+
+def _mean_ci_by(g: pd.DataFrame, by: str) -> tuple[list, list, list, list]:
+    """Per value of ``by``: the mean of ``value`` and its bootstrap CI."""
+    xs, means, los, his = [], [], [], []
+    for x, gg in g.groupby(by, sort=True):
+        vals = gg["value"].to_numpy(dtype=float)
+        xs.append(x)
+        means.append(float(np.nanmean(vals)))
+        lo, hi = bootstrap_ci(vals, np.mean)
+        los.append(lo)
+        his.append(hi)
+    return xs, means, los, his
+
+
 def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     import matplotlib
 
@@ -168,16 +185,8 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     for p in params:
         fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
         for v in variants:
-            g = long[long["variant"] == v]
-            xs, means, los, his = [], [], [], []
-            for x, gg in g.groupby(p, sort=True):
-                vals = gg["value"].to_numpy(dtype=float)
-                xs.append(x)
-                means.append(float(np.nanmean(vals)))
-                lo, hi = bootstrap_ci(vals, np.mean)
-                los.append(lo)
-                his.append(hi)
-            numeric = all(isinstance(x, int | float | np.number) for x in xs)
+            xs, means, los, his = _mean_ci_by(long[long["variant"] == v], p)
+            numeric = _numeric(pd.Series(xs))
             pos = np.asarray(xs, dtype=float) if numeric else np.arange(len(xs))
             (line,) = ax.plot(pos, means, marker="o", label=v)
             ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
@@ -189,6 +198,33 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
         ax.grid(alpha=0.3)
         ax.legend(title="variant")
         save(fig, f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
+    if len(params) == 2:
+        # Two swept parameters: the pooled lines above average one over the other; small
+        # multiples show each, the first (numeric if one is) along x, one panel per value of
+        # the other.
+        x_p, panel_p = params
+        if not _numeric(long[x_p]) and _numeric(long[panel_p]):
+            x_p, panel_p = panel_p, x_p
+        panels = sorted(long[panel_p].dropna().unique(), key=str)
+        fig, axes = plt.subplots(
+            1, len(panels), figsize=(3.2 * len(panels) + 0.8, 3.6), dpi=110, sharey=True,
+            squeeze=False,
+        )  # fmt: skip
+        for ax, pv in zip(axes[0], panels, strict=True):
+            sub = long[long[panel_p] == pv]
+            for v in variants:
+                xs, means, los, his = _mean_ci_by(sub[sub["variant"] == v], x_p)
+                pos = np.asarray(xs, dtype=float) if _numeric(pd.Series(xs)) else np.arange(len(xs))
+                (line,) = ax.plot(pos, means, marker="o", label=v)
+                ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
+            ax.set_title(f"{panel_p.removeprefix('param.')} = {pv}", fontsize=9)
+            ax.set_xlabel(x_p.removeprefix("param."))
+            ax.set_yscale(scale)
+            ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel(f"{metric} (mean, 95 % CI)")
+        axes[0][-1].legend(title="variant", fontsize=8)
+        name = f"{metric}_vs_{x_p.removeprefix('param.')}_by_{panel_p.removeprefix('param.')}"
+        save(fig, name.replace(".", "_") + ".png")
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     for v in variants:
         vals = np.sort(long.loc[long["variant"] == v, "value"].to_numpy(dtype=float))
