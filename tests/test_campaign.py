@@ -167,6 +167,32 @@ def test_sigkill_loses_only_runs_in_flight_and_the_same_command_resumes(tmp_path
     assert set(rows["run_id"]) <= set(final["run_id"])
 
 
+def test_ctrl_c_stops_the_pool_cleanly_and_says_how_to_resume(tmp_path: Path) -> None:
+    spec_path = tmp_path / "i.toml"
+    spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 6").replace("2.0\n[[", "4.0\n[["))
+    out = tmp_path / "i"
+    cmd = [sys.executable, "-m", "twin.app.cli", "campaign", "run", str(spec_path)]
+    cmd += ["--out", str(out), "--quiet", "--workers", "2"]
+    env = {**os.environ, "MUJOCO_GL": "disable"}
+    # Its own process group, signalled as a whole: what a terminal's Ctrl-C does.
+    proc = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline and not list((out / "runs").glob("*.parquet")):
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    text = err.decode()
+    assert proc.returncode == 130, text
+    assert "Traceback" not in text
+    assert "run the same command again to resume" in text
+    rows = load_campaign_results(out)
+    assert 1 <= len(rows) < 12 and set(rows["status"]) == {"ok"}
+    assert main(["campaign", "run", str(spec_path), "--out", str(out), "--quiet"]) == 0
+    assert len(load_campaign_results(out)) == 12
+
+
 def test_cli_validate_reports_in_one_place(tmp_path: Path, capsys) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "bad"\nbase = "tank"\nseeds = -1\n')
