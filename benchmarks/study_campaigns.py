@@ -28,6 +28,13 @@ from twin.campaign.spec import parse_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "campaigns"
+# Besides the default metric (each filter's heading RMSE; each method's error for a study), the
+# flight campaigns also get a report on the compass alone: each fix's heading error against
+# truth, independent of the filter it feeds.
+EXTRA_METRICS = {
+    "depth_water": ["compass_fix_errors.heading_error_rmse_deg"],
+    "time_of_day": ["compass_fix_errors.heading_error_rmse_deg"],
+}
 
 
 def run_one(name: str, workers: int, seeds: int | None) -> None:
@@ -49,6 +56,11 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
         shutil.rmtree(dest)
     shutil.copytree(report.parent, dest)
     busy = float(df["wall_time_s"].sum())
+    # The campaign's span from its row files: first run's start to last run's end (the runs may
+    # have come from several invocations; then this includes the pauses between them).
+    ends = {p.stem: p.stat().st_mtime for p in (out / "runs").glob("*.parquet")}
+    t_end = [ends[i] for i in df["run_id"]]
+    span = max(t_end) - min(t - w for t, w in zip(t_end, df["wall_time_s"], strict=True))
     header = [
         f"# Study campaign `{name}` ({path.relative_to(ROOT)})",
         "",
@@ -64,11 +76,20 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
         + ", ".join(f"{k} {v}" for k, v in sorted(df["status"].value_counts().items()))
         + ".",
         f"- Summed run time {busy / 60:.1f} core-min (mean {busy / max(len(df), 1):.2f} s a run); "
-        f"this invocation ran {sum(counts.values())} of them in {elapsed / 60:.1f} min.",
+        f"first run's start to last run's end {span / 60:.1f} min "
+        f"({busy / max(span, 1e-9):.2f} runs in flight on average); this invocation ran "
+        f"{sum(counts.values())} of them in {elapsed / 60:.1f} min.",
         "",
     ]
     body = (dest / "report.md").read_text()
-    (dest / "report.md").write_text("\n".join(header) + body.split("\n", 1)[1])
+    extra = []
+    for metric in EXTRA_METRICS.get(name, []):
+        sub = dest / metric.split(".")[0]
+        shutil.copytree(write_report(out, metric=metric).parent, sub)
+        extra.append(
+            f"- The same runs, reported on `{metric}`: [{sub.name}/report.md]({sub.name}/report.md)"
+        )
+    (dest / "report.md").write_text("\n".join(header + extra + [""]) + body.split("\n", 1)[1])
     print(f"{name}: {dest / 'report.md'}")
 
 

@@ -151,7 +151,8 @@ def _numeric(col: pd.Series) -> bool:
 def _mean_ci_by(g: pd.DataFrame, by: str) -> tuple[list, list, list, list]:
     """Per value of ``by``: the mean of ``value`` and its bootstrap CI."""
     xs, means, los, his = [], [], [], []
-    for x, gg in g.groupby(by, sort=True):
+    # Numbers in order; names (a water type) in the spec's order, which is the rows' order.
+    for x, gg in g.groupby(by, sort=_numeric(g[by])):
         vals = gg["value"].to_numpy(dtype=float)
         xs.append(x)
         means.append(float(np.nanmean(vals)))
@@ -205,7 +206,8 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
         x_p, panel_p = params
         if not _numeric(long[x_p]) and _numeric(long[panel_p]):
             x_p, panel_p = panel_p, x_p
-        panels = sorted(long[panel_p].dropna().unique(), key=str)
+        values = list(pd.unique(long[panel_p].dropna()))
+        panels = sorted(values) if _numeric(pd.Series(values)) else values
         fig, axes = plt.subplots(
             1, len(panels), figsize=(3.2 * len(panels) + 0.8, 3.6), dpi=110, sharey=True,
             squeeze=False,

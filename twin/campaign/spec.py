@@ -1,5 +1,7 @@
 """A campaign as data: a TOML spec of seeded trials swept over scenario fields.
 
+(Or over a study trial's parameters: ``trial = "moi_noise"``, see :mod:`twin.campaign.trials`.)
+
     name = "depth_water"
     base = "sea_trial_10m"            # a shipped scenario or a .toml path (relative to the spec)
     combine = "grid"                  # "grid" (every combination) or "zip" (axes in lock-step)
@@ -96,7 +98,10 @@ class Axis:
 
 @dataclass(frozen=True, slots=True)
 class RunSpec:
-    """One resolved run: its swept values, its seed, its scenario (as a dict) and its id."""
+    """One resolved run: its swept values, its seed, its scenario (as a dict) and its id.
+
+    For a study trial ``scenario`` is ``{"trial": name, "params": the resolved parameters}``.
+    """
 
     index: int
     params: tuple[tuple[str, Any], ...]
