@@ -34,6 +34,7 @@ RESULTS = ROOT / "benchmarks" / "results" / "campaigns"
 EXTRA_METRICS = {
     "depth_water": ["compass_fix_errors.heading_error_rmse_deg"],
     "time_of_day": ["compass_fix_errors.heading_error_rmse_deg"],
+    "moi_noise": ["flip"],  # how often the sun/anti-sun decision is wrong
 }
 
 
@@ -48,6 +49,7 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
     t0 = time.perf_counter()
     counts = run_campaign(spec, out, workers=workers, progress=True)
     elapsed = time.perf_counter() - t0
+    shutil.rmtree(out / "report", ignore_errors=True)  # no figures of an earlier report
     report = write_report(out)
     df = load_campaign_results(out)
     df = df[df["run_id"].isin({r.run_id for r in spec.runs})]
@@ -85,6 +87,7 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
     extra = []
     for metric in EXTRA_METRICS.get(name, []):
         sub = dest / metric.split(".")[0]
+        shutil.rmtree(out / "report")
         shutil.copytree(write_report(out, metric=metric).parent, sub)
         extra.append(
             f"- The same runs, reported on `{metric}`: [{sub.name}/report.md]({sub.name}/report.md)"

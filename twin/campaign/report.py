@@ -110,6 +110,9 @@ def group_statistics(long: pd.DataFrame) -> pd.DataFrame:
         for i, (name, f) in enumerate(STATISTICS.items()):
             row[name] = float(f(x)) if x.size else math.nan
             row[f"{name}_lo"], row[f"{name}_hi"] = bootstrap_ci(x, f, seed=i)
+        # The largest value, as the MOI paper reports it; no interval (a bootstrap of a maximum
+        # never exceeds the sample's own and says nothing of the population's).
+        row["max"] = float(x.max()) if x.size else math.nan
         out.append(row)
     return pd.DataFrame(out)
 
@@ -169,6 +172,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     written: list[Path] = []
+    stem = metric.replace(".", "_")  # file names without dots but the extension's
 
     def save(fig, name: str) -> None:
         fig.tight_layout()
@@ -198,7 +202,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
         ax.set_yscale(scale)
         ax.grid(alpha=0.3)
         ax.legend(title="variant")
-        save(fig, f"{metric}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
+        save(fig, f"{stem}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
     if len(params) == 2:
         # Two swept parameters: the pooled lines above average one over the other; small
         # multiples show each, the first (numeric if one is) along x, one panel per value of
@@ -225,7 +229,7 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel(f"{metric} (mean, 95 % CI)")
         axes[0][-1].legend(title="variant", fontsize=8)
-        name = f"{metric}_vs_{x_p.removeprefix('param.')}_by_{panel_p.removeprefix('param.')}"
+        name = f"{stem}_vs_{x_p.removeprefix('param.')}_by_{panel_p.removeprefix('param.')}"
         save(fig, name.replace(".", "_") + ".png")
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     for v in variants:
@@ -237,14 +241,14 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
     ax.set_ylabel("fraction of runs ≤ x")
     ax.grid(alpha=0.3)
     ax.legend(title="variant")
-    save(fig, f"{metric}_cdf.png")
+    save(fig, f"{stem}_cdf.png")
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
     data = [long.loc[long["variant"] == v, "value"].dropna().to_numpy() for v in variants]
     ax.boxplot(data, tick_labels=variants)
     ax.set_yscale(scale)
     ax.set_ylabel(metric)
     ax.grid(alpha=0.3, axis="y")
-    save(fig, f"{metric}_box.png")
+    save(fig, f"{stem}_box.png")
     return written
 
 
@@ -300,6 +304,7 @@ def write_report(out: str | Path, metric: str | None = None) -> Path:
     table = groups[[c for c in groups.columns if c.startswith("param.")] + ["variant", "n"]].copy()
     for name in STATISTICS:
         table[name] = with_ci(name)
+    table["max"] = groups["max"].map(lambda v: f"{v:.4g}")
     ptable = pairs.copy()
     if not ptable.empty:
         ptable["a − b"] = ptable.apply(
