@@ -21,6 +21,9 @@ the error of the SM-ASM line (mod 180°); the sun/anti-sun decision is reported 
 undecidable from the AoP at h_s = 0°, where the sun and anti-sun patterns coincide).
 
     python benchmarks/moi_noise_study.py --trials 100     # writes benchmarks/results/
+
+The same study as a campaign (resumable, on Ray too, one trial per run):
+scenarios/campaigns/moi_noise.toml, with the trial in :mod:`twin.campaign.moi_noise`.
 """
 
 from __future__ import annotations
@@ -34,45 +37,17 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.polarimeter.calibration import calibration_from_spec
-from sensors.polarimeter.camera import preset
-from twin.onboard.compass.moi import _geometry, estimate_axis
+from twin.campaign.moi_noise import CASES, METHODS, add_noise, ideal_aop, imager
+from twin.onboard.compass.moi import estimate_axis
 from twin.onboard.polarization import stokes_from_mosaic
 
 RESULTS = Path(__file__).resolve().parent / "results"
-METHODS = ("moi", "patz", "ht")
-CASES = ("ideal", "gaussian", "crosstalk")
 ELEVATIONS_DEG = (0.0, 10.0, 20.0, 30.0, 40.0, 50.0)
 SEED = 20200513
-HALF_PI = np.float32(math.pi / 2)
-PI = np.float32(math.pi)
-
-
-def ideal_aop(cal, sun_cam: np.ndarray) -> np.ndarray:
-    """AoP (from +u towards +v) of the Rayleigh sky on the orthographic imager: E ∝ s × p."""
-    p, _ = cal.rays("interpolate")
-    sx, sy, sz = sun_cam
-    ex = sy * p[..., 2] - sz * p[..., 1]
-    ey = sz * p[..., 0] - sx * p[..., 2]
-    psi = np.arctan2(-ey, ex).astype(np.float32)
-    return np.mod(psi + HALF_PI, PI) - HALF_PI
-
-
-def add_noise(aop, xi, sign, rng, crosstalk: bool) -> np.ndarray:
-    aoplm = np.mod(aop - xi + HALF_PI, PI) - HALF_PI
-    span = float(aoplm.max() - aoplm.min())
-    n = rng.standard_normal(size=aop.shape, dtype=np.float32) * np.float32(0.01 * span)
-    if crosstalk:
-        n += sign * rng.random(size=aop.shape, dtype=np.float32) * np.float32(0.02 * span)
-    n += aop + HALF_PI
-    return np.mod(n, PI) - HALF_PI
 
 
 def run(trials: int) -> dict:
-    cal = calibration_from_spec(preset("moi_pinhole"))
-    g = _geometry(cal, "interpolate", None)
-    h, w = g.shape
-    sign = (1 - 2 * (np.add.outer(np.arange(h), np.arange(w)) % 2)).astype(np.float32)
+    cal, g, sign = imager()
     rng = np.random.default_rng(SEED)
     # errs[case][method][elev] = list of |axis error| (deg); flips likewise (count)
     errs = {c: {m: {e: [] for e in ELEVATIONS_DEG} for m in METHODS} for c in CASES}
@@ -107,7 +82,7 @@ def run(trials: int) -> dict:
 
 def frame_timing(repeats: int = 5) -> dict[str, float]:
     """Best-of time per full-resolution frame: the AoP entry, and solve()'s Stokes step."""
-    cal = calibration_from_spec(preset("moi_pinhole"))
+    cal = imager()[0]
     sun = np.array([0.5, 0.6, math.sin(math.radians(30.0))])
     aop = ideal_aop(cal, sun / np.linalg.norm(sun))
     out = {}
