@@ -196,7 +196,10 @@ def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
             (line,) = ax.plot(pos, means, marker="o", label=v)
             ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
             if not numeric:
-                ax.set_xticks(pos, [str(x) for x in xs])
+                labels = [str(x) for x in xs]
+                long_labels = max(map(len, labels)) > 8  # timestamps: tilted, not overlapping
+                ax.set_xticks(pos, labels, rotation=30 if long_labels else 0,
+                              ha="right" if long_labels else "center")  # fmt: skip
         ax.set_xlabel(p.removeprefix("param."))
         ax.set_ylabel(f"{metric} (mean, 95 % CI)")
         ax.set_yscale(scale)

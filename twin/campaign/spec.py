@@ -361,14 +361,13 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         if data.get("timeseries") or data.get("keep_recordings"):
             errs.append("timeseries, keep_recordings: allowed only for scenario trials")
 
-    # The base scenario.
+    # The base scenario (a study trial has none: its parameters are its own).
     base_raw = data.get("base")
     base: Scenario | None = None
-    if trial_name != SCENARIO:
-        pass
-    elif not isinstance(base_raw, str):
+    if trial_name == SCENARIO and not isinstance(base_raw, str):
         errs.append(f"base: {_show(base_raw)}; allowed: a shipped scenario name or a .toml path")
-    else:
+    elif trial_name == SCENARIO:
+        assert isinstance(base_raw, str)
         target = base_raw
         if base_raw.endswith(".toml") and root is not None and not Path(base_raw).is_absolute():
             target = str(root / base_raw)
