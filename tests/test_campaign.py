@@ -256,6 +256,9 @@ def test_the_report_computes_from_the_rows_and_draws_real_figures(tmp_path: Path
     )
     out = tmp_path / "rep"
     assert run_campaign(spec, out) == {"ok": 6}
+    import twin  # the one-call API
+
+    pd.testing.assert_frame_equal(twin.load_campaign_results(out), load_campaign_results(out))
     md = write_report(out)
     text = md.read_text()
     groups = pd.read_csv(out / "report" / "groups.csv")

@@ -11,4 +11,22 @@ is on (docs/architecture.md; tests/test_boundary.py checks the import graph):
 * :mod:`twin.scoring`: estimates and the mission scored against truth.
 * :mod:`twin.record`: the Rerun recording.
 * :mod:`twin.app`: the stepping core, the run loop, the dm_env/Gymnasium environments, the CLI.
+* :mod:`twin.campaign`: many seeded runs: specs, the local pool and Ray, Parquet rows, reports;
+  ``twin.load_campaign_results(DIR)`` reads a campaign as one DataFrame.
 """
+
+from __future__ import annotations
+
+from typing import Any as _Any
+
+# One-call access to a campaign's results (twin.load_campaign_results("runs/quick") → DataFrame),
+# imported on first use so that `import twin` does not pull in pandas and pyarrow.
+_CAMPAIGN_API = ("load_campaign_results", "load_timeseries")
+
+
+def __getattr__(name: str) -> _Any:
+    if name in _CAMPAIGN_API:
+        from twin.campaign import results
+
+        return getattr(results, name)
+    raise AttributeError(f"module 'twin' has no attribute {name!r}")
