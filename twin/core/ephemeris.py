@@ -276,10 +276,10 @@ def move_enu(
     """A direction to a far body seen from place 0, expressed in the ENU frame of place 1.
 
     The sun is 1.5e11 m away, so moving the observer by kilometres leaves its direction fixed in
-    the Earth frame (topocentric parallax changes by < 1e-9° per km) and only the local axes turn.
+    the Earth frame (1 km over 1.5e8 km turns it by 4e-7°) and only the local axes turn.
     What this does not carry over is the change of refraction with the new elevation: the local
     vertical turns by 0.009° per km, and refraction's slope is at most ~0.2 °/° near the horizon
-    (Bennett 1982), so the apparent position is off by < 2e-3° per km at the horizon and < 1e-5°
+    (Bennett 1982), so the apparent position is off by < 2e-3° per km at the horizon and < 3e-5°
     per km above 20° elevation. Trackers are kept per 0.01° cell (≈ 1 km), see
     :func:`sun_direction_enu`.
     """
