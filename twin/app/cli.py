@@ -11,6 +11,17 @@ import scenarios
 from scenarios import ScenarioError
 
 
+def _writable_out(out: str | Path) -> Path | None:
+    """``--out`` created and proved writable before anything runs; None (said in a line) if not."""
+    from twin.app.run import prepare_output
+
+    try:
+        return prepare_output(out)
+    except OSError as exc:
+        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+        return None
+
+
 def _cmd_scenarios(args: argparse.Namespace) -> int:
     for name, path in scenarios.shipped().items():
         try:
@@ -39,7 +50,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from twin.app.run import format_summary, prepare_output, run_scenario  # heavy: when running
+    from twin.app.run import format_summary, run_scenario  # heavy: when running
 
     try:
         sc = scenarios.load(args.scenario)
@@ -53,10 +64,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"error: --seed {args.seed}: must be an integer >= 0", file=sys.stderr)
         return 2
     out = Path(args.out) if args.out else Path("runs") / sc.name
-    try:
-        prepare_output(out)  # before anything is flown
-    except OSError as exc:
-        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+    if _writable_out(out) is None:  # before anything is flown
         return 2
     try:
         metrics = run_scenario(
@@ -81,7 +89,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_render(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from twin.app.run import prepare_output
     from twin.app.simulation import build_simulation
     from twin.onboard.polarization import stokes_from_mosaic
     from twin.record import images
@@ -107,10 +114,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     except (KeyError, ValueError) as exc:
         print(f"error: --preset {args.preset}: {exc}", file=sys.stderr)
         return 2
-    try:
-        prepare_output(out)  # before anything is flown
-    except OSError as exc:
-        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+    if _writable_out(out) is None:  # before anything is flown
         return 2
     world = build_simulation(sc, args.seed)
     world.fly(args.at)
@@ -162,7 +166,6 @@ def _cmd_campaign_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
-    from twin.app.run import prepare_output
     from twin.campaign.runner import run_campaign
     from twin.campaign.spec import CampaignError, load_campaign
 
@@ -174,10 +177,8 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
     except CampaignError as exc:
         print(f"error: campaign {args.spec} is invalid\n{exc}", file=sys.stderr)
         return 2
-    try:
-        out = prepare_output(args.out)
-    except OSError as exc:
-        print(f"error: --out {exc.strerror or exc}", file=sys.stderr)
+    out = _writable_out(args.out)
+    if out is None:
         return 2
     try:
         counts = run_campaign(
