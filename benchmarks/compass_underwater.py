@@ -2,14 +2,15 @@
 
 Renders frames with known truth (``Polarimeter.render_offline``: no MuJoCo world, no occlusion),
 noisy PHX050S-P camera (binned 4×4 by default, ``--full-res`` for 2448×2048), fixed 700 µs
-exposure, random sun positions (elevation 25–70°, any azimuth), random small tilts (roll/pitch
+exposure, random sun positions (elevation 20–70°, any azimuth), random small tilts (roll/pitch
 ±5°, hint = truth), random heading, fixed seed. Errors are of the solar vector in the level
-frame h: azimuth (= heading error) and zenith angle, MAE and the mean signed zenith error (bias;
-negative = towards the zenith). Also a "tank" row imitating the LIG paper's static test
-(0.5 m of milky water: Jerlov 3C with 5× particle scattering).
+frame h: azimuth (= heading error) and zenith angle, MAE and the mean signed zenith error (bias,
+with its 95 % confidence interval over the frames; negative = towards the zenith: the apparent
+sun's drift). Also a "tank" row imitating the LIG paper's static test (0.5 m of milky water:
+Jerlov 3C with 5× particle scattering).
 
-Usage: python benchmarks/compass_underwater.py [--frames N] [--full-res] [--seed S]
-Writes benchmarks/results/compass_underwater.md and .json.
+Usage: python benchmarks/compass_underwater.py [--frames N] [--full-res] [--seed S] [--stem S]
+Writes benchmarks/results/<stem>.md and .json (stem ``compass_underwater``).
 """
 
 from __future__ import annotations
@@ -31,8 +32,8 @@ from twin.onboard.compass.lig import LigCompass, LigConfig
 from twin.onboard.compass.pol import PolCompass
 
 RESULTS = pathlib.Path(__file__).parent / "results"
-DEPTHS = (2.0, 5.0, 10.0, 15.0)
-WATERS = (("II", 1.0), ("1C", 1.0), ("3C", 1.0))
+DEPTHS = (1.0, 2.0, 5.0, 10.0, 15.0, 20.0)
+WATERS = (("I", 1.0), ("II", 1.0), ("1C", 1.0), ("3C", 1.0))
 TANK = ("tank 0.5 m, 3C ×5", 0.5, "3C", 5.0)
 
 
@@ -53,7 +54,7 @@ def run_cell(preset: str, jt: str, turb: float, depth: float, n: int, rng) -> di
     nofix = dict.fromkeys(ms, 0)
     for _ in range(n):
         az = rng.uniform(0, 2 * math.pi)
-        el = math.radians(rng.uniform(25, 70))
+        el = math.radians(rng.uniform(20, 70))
         sun = np.array([math.cos(el) * math.sin(az), math.cos(el) * math.cos(az), math.sin(el)])
         roll, pitch = np.radians(rng.uniform(-5, 5, 2))
         yaw = rng.uniform(-math.pi, math.pi)
@@ -87,6 +88,10 @@ def run_cell(preset: str, jt: str, turb: float, depth: float, n: int, rng) -> di
             "az_mae": float(np.mean(np.abs(daz))) if ok else None,
             "zen_mae": float(np.mean(np.abs(dzen))) if ok else None,
             "zen_bias": float(np.mean(dzen)) if ok else None,
+            # Normal-approximation 95 % interval of the mean signed zenith error.
+            "zen_bias_ci": float(1.96 * np.std(dzen, ddof=1) / math.sqrt(len(dzen)))
+            if len(dzen) > 1
+            else None,
             "nofix": nofix[name],
             "n": n,
         }
@@ -102,6 +107,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=8, help="frames per cell")
     ap.add_argument("--full-res", action="store_true", help="2448×2048 instead of 612×512")
     ap.add_argument("--seed", type=int, default=20240103)
+    ap.add_argument("--stem", default="compass_underwater", help="results file name")
     args = ap.parse_args()
     preset = "phx050s_p" if args.full_res else "phx050s_p_bin4"
     rng = np.random.default_rng(args.seed)
@@ -128,17 +134,15 @@ def main() -> None:
         "seed": args.seed,
         "elapsed_s": elapsed,
     }
-    (RESULTS / "compass_underwater.json").write_text(
-        json.dumps({"meta": meta, "rows": rows}, indent=1)
-    )
+    (RESULTS / f"{args.stem}.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     names = list(methods())
     lines = [
         "# Underwater compass accuracy: LIG vs POL (benchmarks/compass_underwater.py)",
         "",
         f"Camera `{preset}` (noisy, 700 µs), {args.frames} frames per cell, seed {args.seed}; sun "
-        "elevation 25–70°, any azimuth; roll/pitch ±5° (hint = truth); errors of the level-frame "
-        "solar vector in degrees: azimuth MAE / zenith MAE / zenith bias (mean signed, negative "
-        "= towards the zenith); no-fix count. `LIG-water` is a diagnostic variant (normals on the "
+        "elevation 20–70°, any azimuth; roll/pitch ±5° (hint = truth); errors of the level-frame "
+        "solar vector in degrees: azimuth MAE / zenith MAE / zenith bias ± its 95 % interval "
+        "(mean signed, negative = towards the zenith); no-fix count. `LIG-water` is a diagnostic variant (normals on the "
         f"in-water sphere), not the paper's method. Run time {elapsed:.0f} s.",
         "",
         "| water | depth m | " + " | ".join(f"{n} az / zen / bias (nofix)" for n in names) + " |",
@@ -147,7 +151,7 @@ def main() -> None:
     for r in rows:
         cells_s = [
             f"{fmt(r[n]['az_mae'])} / {fmt(r[n]['zen_mae'])} / {fmt(r[n]['zen_bias'])}"
-            f" ({r[n]['nofix']})"
+            f" ± {fmt(r[n]['zen_bias_ci'])} ({r[n]['nofix']})"
             for n in names
         ]
         lines.append(f"| {r['water']} | {r['depth_m']:g} | " + " | ".join(cells_s) + " |")
@@ -158,7 +162,7 @@ def main() -> None:
         "LIG/INS 1.6° and 2.2°.",
         "",
     ]
-    (RESULTS / "compass_underwater.md").write_text("\n".join(lines))
+    (RESULTS / f"{args.stem}.md").write_text("\n".join(lines))
     print(f"done in {elapsed:.0f} s")
 
 

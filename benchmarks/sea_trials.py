@@ -6,7 +6,7 @@ filter set-ups: the paper's (full solar vector, every fix fused: no gate), the t
 (full vector, NIS gate p = 0.999) and the robust one (azimuth only, gated). Writes
 benchmarks/results/sea_trials.{md,json}.
 
-    python benchmarks/sea_trials.py [--seeds 0 1 2]
+    python benchmarks/sea_trials.py [--seeds 0 1 2] [--workers 2]
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import json
 import statistics
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import scenarios
@@ -31,6 +32,10 @@ SETUPS = {
     "default: vector, gated": {"gate_probability": 0.999, "sun_measurement": "vector"},
     "robust: azimuth, gated": {"gate_probability": 0.999, "sun_measurement": "azimuth"},
 }
+
+
+def _trial(args: tuple[int, str, int]) -> dict:
+    return trial(*args)
 
 
 def trial(depth: int, setup: str, seed: int) -> dict:
@@ -60,9 +65,12 @@ def trial(depth: int, setup: str, seed: int) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
+    ap.add_argument("--workers", type=int, default=1, help="runs in parallel (processes)")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    rows = [trial(d, u, s) for u in SETUPS for d in (10, 15) for s in args.seeds]
+    jobs = [(d, u, s) for u in SETUPS for d in (10, 15) for s in args.seeds]
+    with ProcessPoolExecutor(max(args.workers, 1)) as ex:
+        rows = list(ex.map(_trial, jobs))
     lines = [
         "# LIG paper sea trials in the twin (benchmarks/sea_trials.py)",
         "",

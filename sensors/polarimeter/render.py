@@ -78,7 +78,6 @@ class OpticsConfig:
         wavelength_nm: The one wavelength of the optics.
         wind_speed_mps: Wind at 12.5 m for Cox–Munk slopes; 0 = a flat sea.
         wind_toward_deg: Compass direction the wind blows toward.
-        scattering: Multiple-scattering model constants (default ``water.ScatteringModel()``).
     """
 
     sky: SkySpec = dataclasses.field(default_factory=SkySpec)
@@ -89,7 +88,6 @@ class OpticsConfig:
     wavelength_nm: float = 500.0
     wind_speed_mps: float = 0.0
     wind_toward_deg: float = 0.0
-    scattering: water_mod.ScatteringModel | None = None
 
     def __post_init__(self) -> None:
         if self.jerlov_type not in water_mod.JERLOV_TYPES:
@@ -274,7 +272,6 @@ _DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm be
 # exact chain (tests/sensors/polarimeter/test_render_fast.py, docs/polarimeter.md).
 _EDGE_BAND_IN_CELLS = 3.0  # coarse cells inside Snell's window edge (above the horizon in air)
 _EDGE_BAND_OUT_CELLS = 2.0  # … and outside it
-_SMOOTH_TOL = 0.005  # the diffuse window edge: rough where the interpolation would err more
 _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
 _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
@@ -483,7 +480,7 @@ class Polarimeter(Sensor):
         o = self.optics
         self.n_water = o.water_index
         self._column = water_mod.WaterColumn(
-            water_mod.jerlov_water(o.jerlov_type, o.turbidity), self.n_water, o.scattering
+            water_mod.jerlov_water(o.jerlov_type, o.turbidity), self.n_water
         )
         # Radiance → photons/s per pixel: the camera equation at the binned pixel pitch.
         pitch = self.camera.spec.pixel_pitch_um * self.camera.spec.binning
@@ -798,8 +795,8 @@ class Polarimeter(Sensor):
            edge (the horizon, in air: Fresnel transmission and the compressed sky are not smooth
            there); or within ``_SUN_BAND_CELLS`` cells plus ``_SUN_BAND_RAD`` of the (refracted)
            sun (the disc, the sky's aureole, the forward-peaked phase function); or near a feature
-           of the scattered light narrower than a few cells (the diffuse window's blurred edge,
-           the single-scattering step at the horizon, both sharp at shallow depth); and every
+           of the scattered light narrower than a few cells (the single-scattering step at the
+           horizon, sharp at shallow depth); and every
            cell on the frame's border is rough (the resize extrapolates there). The exact chain
            renders every valid pixel of a rough cell; the others are interpolated.
         3. Snell's window mask: exact in rough cells, elsewhere the nearest point's (a smooth
@@ -881,28 +878,17 @@ class Polarimeter(Sensor):
     ) -> NDArray[np.bool_]:
         """Coarse points where the scattered light is too curved to interpolate over a cell.
 
-        Two features of the water column are narrow at shallow depth:
-
-        * the diffuse window term A·W(v_z), W a logistic step of scale w (cos θ units) at the
-          window edge. Bilinear interpolation errs by about cell²/8 · |d²(A W)/dθ²|, with
-          d²W/dθ² = W_vv sin²θ − W_v cos θ, W_v = W(1 − W)/w, W_vv = W(1 − W)(1 − 2W)/w²;
-          a point is rough where that exceeds ``_SMOOTH_TOL`` of its S0;
-        * single scattering, which changes from a path-limited to an unlimited line of sight
-          over v_z ≈ c·z at the horizon: rough within 3 c·z + 1 cell of it when c·z spans fewer
-          than ``_STEP_CELLS`` cells.
+        Single scattering changes from a path-limited to an unlimited line of sight over
+        v_z ≈ c·z at the horizon: rough within 3 c·z + 1 cell of it when c·z spans fewer than
+        ``_STEP_CELLS`` cells. (The table's light is bilinear between bins of 3° and more, wider
+        than a cell, and its one step, the total internal reflection at Snell's window edge, lies
+        in the edge band.)
         """
         assert self._column is not None
-        mu_c, width = state.window_cos, state.window_width
-        amp = abs(state.e_diffuse * state.sky_share * state.window_norm - state.l_up)
-        x = np.clip((up - mu_c) / width, -60.0, 60.0)
-        win = 1.0 / (1.0 + np.exp(-x))
-        w_v = win * (1.0 - win) / width
-        w_vv = w_v * (1.0 - 2.0 * win) / width
-        sin2 = np.maximum(1.0 - up * up, 0.0)
-        curv = np.abs(w_vv * sin2 - w_v * up) * (amp * self._photon_scale)
-        rough = curv * cell**2 / 8.0 > _SMOOTH_TOL * np.maximum(s0, 1e-30)
+        del s0
         step = self._column.water.c_per_m * state.depth_m
         narrow = step / cell < _STEP_CELLS
+        rough = np.zeros(up.shape, dtype=bool)
         if narrow.any():
             horizon = np.arcsin(up) / cell
             rough |= narrow & (np.abs(horizon) < 3.0 * step / cell + 1.0)

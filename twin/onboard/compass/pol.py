@@ -27,10 +27,11 @@ only the AoP is biased for partially polarized light) define the method implemen
 
 Pixels used: in the window (margin as LIG), not saturated, DoP ≥ ``min_dop`` (the AoP of a nearly
 unpolarised pixel is noise). Unit constraints by default (as eq. 13; ``weighting="dop"`` weights
-by the measured DoP). The multiple-scattering "equivalent incident light" of the world model
-(docs/polarimeter.md) shifts the E-vector pattern's effective sun towards the zenith with depth
-and turbidity — by design this method then reports a biased elevation; that is the effect the
-LIG paper measures, not a defect to hide here.
+by the measured DoP). Multiply scattered light in the world's water (a radiative-transfer
+solution, docs/polarimeter.md) does not follow the single-scattering E-vector pattern this method
+assumes, so its elevation is biased in deep or turbid water by whatever the transport gives —
+the effect the LIG paper reports, measured here rather than assumed
+(benchmarks/results/compass_underwater.md).
 
 Quality figures as in :mod:`~twin.onboard.compass.lig` (``residual`` = RMS of eᵀs, ``eigen_gap``
 = κ_2/κ_min, covariance from the eigen-perturbation with one analysis pixel per independent

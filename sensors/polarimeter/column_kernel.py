@@ -1,0 +1,186 @@
+"""Per-pixel scattered light of the water column (numba): closed-form single scattering + table.
+
+One loop over look directions v (ENU) computes, for each pixel, in the meridian reference of the
+light's direction d = −v (:func:`sensors.polarimeter.stokes.meridian_reference`):
+
+1. the refracted sun beam scattered once (:mod:`sensors.polarimeter.water`, eq. 2): magnitude
+   β(Θ) E G(v) in closed form, polarization R(−χ₂) M(Θ) R(χ₁) (1, q_b, 0) with the sea-water phase
+   matrix M of :mod:`sensors.polarimeter.scattering` and the beam's Fresnel polarization q_b;
+2. everything else that was scattered (the multiply scattered sun, the scattered sky, the upwelling
+   light and its reflection at the surface), sampled bilinearly from the frame's
+   :class:`sensors.polarimeter.rt.table.FrameField` at (look zenith, azimuth from the sun), never
+   across Snell's window edge.
+
+Why a compiled loop: the polarization of single scattering needs two frame rotations per pixel
+(about 150 floating-point operations); in numpy that is ~40 temporaries per pixel, in a loop it is
+registers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _row(theta, grid_t):
+    """Index i with grid_t[i] <= theta < grid_t[i + 1] (clamped) and the fraction."""
+    n = grid_t.shape[0]
+    if theta <= grid_t[0]:
+        return 0, 0.0
+    if theta >= grid_t[n - 1]:
+        return n - 2, 1.0
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if theta >= grid_t[mid]:
+            lo = mid
+        else:
+            hi = mid
+    return lo, (theta - grid_t[lo]) / (grid_t[lo + 1] - grid_t[lo])
+
+
+@njit(cache=True)
+def scatter_pixels(
+    x, y, z, out,
+    single, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+    has_field, f_in, t_in, f_out, t_out, theta_c_frame, theta_c_table, dphi, cphi, sphi,
+):  # fmt: skip
+    """Fill ``out[0..2, i]`` with the scattered Stokes of look direction (x, y, z)[i] (ENU).
+
+    Arguments, in order: x, y, z ((m,) look-direction components); out ((3, m)); single (add
+    single scattering: a lit beam, b > 0); cz, c (c z and c); sx, sy, sz (the look direction
+    towards the refracted sun); e_sun (the beam's normal irradiance below the surface); beam_q
+    (its Q/I relative to its meridian, Fresnel: > 0); r0x, r0y, r0z (the beam's meridian
+    reference, light direction −ŝ); luts ((4, K) β, m12, m22, m33 against u = sin(Θ/2)); has_field
+    (add the table's light); f_in, t_in, f_out, t_out (the frame field's padded grids and their
+    look zeniths); theta_c_frame, theta_c_table (Snell's window edge in this water and in the
+    table's); dphi (the table's azimuth bin width); cphi, sphi (the sun's azimuth: the table's
+    φ = 0).
+    """
+    m = x.shape[0]
+    k_lut = luts.shape[1] - 1
+    mu_s = max(sz, 1e-3)
+    a1 = cz / mu_s
+    half_pi = 0.5 * math.pi
+    for i in range(m):
+        vx = float(x[i])
+        vy = float(y[i])
+        vz = float(z[i])
+        # Meridian reference of d = −v: (ẑ − v_z v)/|…| (North at the poles).
+        h = 1.0 - vz * vz
+        if h > 1e-12:
+            inv = 1.0 / math.sqrt(h)
+            mx = -vz * vx * inv
+            my = -vz * vy * inv
+            mz = h * inv
+        else:
+            mx, my, mz = 0.0, 1.0, 0.0
+        si = 0.0
+        sq = 0.0
+        su = 0.0
+        if single:
+            ct = vx * sx + vy * sy + vz * sz
+            ct = min(max(ct, -1.0), 1.0)
+            # e1 ⟂ d0 = −ŝ towards d = −v: (−v + ct ŝ)/sin Θ.
+            e1x = -vx + ct * sx
+            e1y = -vy + ct * sy
+            e1z = -vz + ct * sz
+            st = math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+            if st > 1e-9:
+                e1x /= st
+                e1y /= st
+                e1z /= st
+            else:
+                e1x, e1y, e1z = r0x, r0y, r0z
+                st = 0.0
+            # χ₁ from r0 to e1 about d0 = −ŝ.
+            c1 = r0x * e1x + r0y * e1y + r0z * e1z
+            s1 = -((r0y * e1z - r0z * e1y) * sx + (r0z * e1x - r0x * e1z) * sy
+                   + (r0x * e1y - r0y * e1x) * sz)  # fmt: skip
+            q1 = (c1 * c1 - s1 * s1) * beam_q
+            u1 = -2.0 * c1 * s1 * beam_q
+            uu = math.sqrt(max(0.5 - 0.5 * ct, 0.0)) * k_lut
+            j = int(uu)
+            if j >= k_lut:
+                j = k_lut - 1
+            f = uu - j
+            beta = luts[0, j] * (1.0 - f) + luts[0, j + 1] * f
+            m12 = luts[1, j] * (1.0 - f) + luts[1, j + 1] * f
+            m22 = luts[2, j] * (1.0 - f) + luts[2, j + 1] * f
+            m33 = luts[3, j] * (1.0 - f) + luts[3, j + 1] * f
+            oi = 1.0 + m12 * q1
+            oq = m12 + m22 * q1
+            ou = m33 * u1
+            # e2 = cos Θ e1 − sin Θ d0 = cos Θ e1 + sin Θ ŝ; χ₂ from e2 to m about d = −v.
+            e2x = ct * e1x + st * sx
+            e2y = ct * e1y + st * sy
+            e2z = ct * e1z + st * sz
+            c2 = e2x * mx + e2y * my + e2z * mz
+            s2 = -((e2y * mz - e2z * my) * vx + (e2z * mx - e2x * mz) * vy
+                   + (e2x * my - e2y * mx) * vz)  # fmt: skip
+            n2 = c2 * c2 + s2 * s2
+            if n2 > 0.0:
+                cc = (c2 * c2 - s2 * s2) / n2
+                ss = 2.0 * c2 * s2 / n2
+            else:
+                cc, ss = 1.0, 0.0
+            # Magnitude (water.py eq. 2): β e^(−min(a1, a2)) (1 − e^(−x)) E μ_s / (c |μ_s − v_z|).
+            vzp = max(vz, 1e-6)
+            a2 = cz / vzp
+            dm = max(abs(mu_s - vz), 1e-6)
+            xx = cz * dm / (mu_s * vzp)
+            g = math.exp(-min(a1, a2)) * (-math.expm1(-xx)) / dm
+            lss = beta * g * e_sun * mu_s / c
+            si = lss * oi
+            sq = lss * (cc * oq + ss * ou)
+            su = lss * (-ss * oq + cc * ou)
+        if has_field:
+            theta = math.acos(min(max(vz, -1.0), 1.0))
+            if theta < theta_c_frame:
+                tt = theta * theta_c_table / theta_c_frame
+                grid = f_in
+                r, fr = _row(tt, t_in)
+            else:
+                if theta <= half_pi:
+                    tt = theta_c_table + (theta - theta_c_frame) * (half_pi - theta_c_table) / (
+                        half_pi - theta_c_frame
+                    )
+                else:
+                    tt = theta
+                grid = f_out
+                r, fr = _row(tt, t_out)
+            # Azimuth from the sun, folded onto [0, π] (U changes sign under the mirror).
+            px = vx * cphi + vy * sphi
+            py = -vx * sphi + vy * cphi
+            phi = math.atan2(py, px)
+            sign = 1.0
+            if phi < 0.0:
+                phi = -phi
+                sign = -1.0
+            p = phi / dphi + 0.5
+            jc = int(p)
+            if jc >= grid.shape[1] - 1:
+                jc = grid.shape[1] - 2
+            fp = p - jc
+            w00 = (1.0 - fr) * (1.0 - fp)
+            w01 = (1.0 - fr) * fp
+            w10 = fr * (1.0 - fp)
+            w11 = fr * fp
+            si += (w00 * grid[r, jc, 0] + w01 * grid[r, jc + 1, 0]
+                   + w10 * grid[r + 1, jc, 0] + w11 * grid[r + 1, jc + 1, 0])  # fmt: skip
+            sq += (w00 * grid[r, jc, 1] + w01 * grid[r, jc + 1, 1]
+                   + w10 * grid[r + 1, jc, 1] + w11 * grid[r + 1, jc + 1, 1])  # fmt: skip
+            su += sign * (w00 * grid[r, jc, 2] + w01 * grid[r, jc + 1, 2]
+                          + w10 * grid[r + 1, jc, 2] + w11 * grid[r + 1, jc + 1, 2])  # fmt: skip
+        out[0, i] = si
+        out[1, i] = sq
+        out[2, i] = su
+
+
+def empty_grid() -> np.ndarray:
+    """A placeholder grid for frames without table light (numba needs typed arrays)."""
+    return np.zeros((2, 2, 3), dtype=np.float32)

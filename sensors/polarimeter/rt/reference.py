@@ -1,0 +1,313 @@
+"""The polarized radiative-transfer reference: Stokes radiance over in-water directions at depth.
+
+``solve(water, source=...)`` runs the forward Monte Carlo of :mod:`sensors.polarimeter.rt.kernel`
+for one water body and one source — the refracted sun beam at an in-water zenith angle, or a
+uniform unpolarized sky — and returns a :class:`LightField`: the Stokes radiance (I, Q, U) of the
+scattered light in look-direction bins (zenith θ of the look direction v, azimuth relative to the
+sun folded onto [0, π]; the field is mirror-symmetric about the sun's vertical plane) on a set of
+depth planes, split into the once-scattered light and the rest, with its Monte Carlo standard
+error from independent batches; the up- and downwelling irradiances (direct light included) at
+every plane, from the photons' plane crossings; and the energy budget.
+
+Radiance is scored by binned plane crossings (:mod:`~sensors.polarimeter.rt.kernel` says why):
+a bin's value is the flux its photons carry through the plane divided by ∫_bin |cos θ| dΩ (its
+|μ|-weighted mean radiance, finite even in the bins at the horizon). The bins are coarse (3–10° in
+look zenith, 15° in azimuth) because the scattered light they hold is smooth: the sharp parts —
+the direct light and the once-scattered aureole — are computed in closed form by the renderer.
+
+Units: everything is per unit downwelling (plane) irradiance of the source just below the surface,
+so the renderer scales by the beam's or the sky's transmitted irradiance. Stokes use the chain's
+meridian reference (:func:`sensors.polarimeter.stokes.meridian_reference` of the light's direction
+d = −v).
+
+Geometry and optics: plane-parallel homogeneous water, deep (photons below ``tau_bottom`` are lost;
+the default is the deepest plane + 20 optical depths, where the light is e^-(≳ 5) weaker than at the
+deepest plane even in the most scattering water), a flat surface with index n (Fresnel reflection
+of the upwelling light from below, total internal reflection beyond the critical angle), the
+phase matrix of :mod:`sensors.polarimeter.scattering`. One wavelength: the water's IOPs are given
+at one wavelength, and the result is for that wavelength.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sensors.polarimeter import scattering
+from sensors.polarimeter.rt import kernel
+from sensors.polarimeter.surface import N_AIR, fresnel_elements
+
+FloatArray = NDArray[np.floating]
+
+#: Default depth planes, optical depths τ = c z (0 is just below the surface).
+DEFAULT_PLANES: tuple[float, ...] = (
+    0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0,
+    20.0, 25.0, 30.0,
+)  # fmt: skip
+
+
+def look_zenith_edges_deg(n_water: float) -> FloatArray:
+    """Look-zenith bin edges (degrees), with an edge exactly at Snell's window's θ_c.
+
+    ~3° inside the window, ~4° from its edge (where the upwelling light's total internal
+    reflection starts) to the horizon, 10° below it (the upwelling light is smooth).
+    """
+    tc = math.degrees(math.asin(1.0 / n_water))
+    inside = np.linspace(0.0, tc, math.ceil(tc / 3.0) + 1)
+    outside = np.linspace(tc, 90.0, math.ceil((90.0 - tc) / 4.0) + 1)[1:]
+    below = np.linspace(90.0, 180.0, 10)[1:]
+    return np.concatenate([inside, outside, below])
+
+
+@dataclass(frozen=True, slots=True)
+class Grid:
+    """Where the reference scores light.
+
+    Attributes:
+        planes: Optical depths c z of the scoring planes (ascending, the first 0).
+        theta_edges_deg: Look-zenith bin edges, 0 … 180°.
+        n_phi: Relative-azimuth bins over [0°, 180°].
+    """
+
+    planes: tuple[float, ...] = DEFAULT_PLANES
+    theta_edges_deg: tuple[float, ...] = field(
+        default_factory=lambda: tuple(look_zenith_edges_deg(1.34).tolist())
+    )
+    n_phi: int = 12
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.planes, dtype=float)
+        if p.size < 1 or p[0] != 0.0 or np.any(np.diff(p) <= 0) or not np.all(np.isfinite(p)):
+            raise ValueError(f"planes must be ascending optical depths from 0, got {self.planes}")
+        t = np.asarray(self.theta_edges_deg, dtype=float)
+        if t[0] != 0.0 or t[-1] != 180.0 or np.any(np.diff(t) <= 0):
+            raise ValueError("theta_edges_deg must rise from 0 to 180")
+        if not (1 <= self.n_phi <= 360):
+            raise ValueError(f"n_phi must be in [1, 360], got {self.n_phi}")
+
+    def solid_angle_mu(self) -> FloatArray:
+        """(T, n_phi) ∫_bin |cos θ| dΩ of each folded bin (both mirror halves)."""
+        t = np.radians(np.asarray(self.theta_edges_deg))
+        s2 = np.sin(t) ** 2
+        # ∫ |cos θ| sin θ dθ over [t0, t1] = |sin²t1 − sin²t0|/2 on one side of the horizon.
+        per = np.abs(np.diff(s2)) / 2.0
+        straddle = (t[:-1] < math.pi / 2) & (t[1:] > math.pi / 2)
+        per[straddle] = (1.0 - s2[:-1][straddle]) / 2.0 + (1.0 - s2[1:][straddle]) / 2.0
+        dphi = 2.0 * math.pi / self.n_phi  # folded: two mirror bins of π/n_phi each
+        return np.repeat(per[:, None], self.n_phi, axis=1) * dphi
+
+    def centers_deg(self) -> tuple[FloatArray, FloatArray]:
+        """(look zenith, relative azimuth) bin centres in degrees."""
+        t = np.asarray(self.theta_edges_deg)
+        ph = (np.arange(self.n_phi) + 0.5) * 180.0 / self.n_phi
+        return 0.5 * (t[1:] + t[:-1]), ph
+
+
+@dataclass(frozen=True)
+class LightField:
+    """The reference's answer for one water body and one source (module docstring for units).
+
+    Attributes:
+        grid: Where it was scored.
+        source: "sun" or "sky".
+        sun_zenith_water_deg: In-water zenith of the refracted sun (NaN for the sky).
+        single: (P, T, n_phi, 3) once-scattered, never-reflected Stokes radiance per bin.
+        multiple: (P, T, n_phi, 3) all other scattered light (a surface reflection included).
+        single_se, multiple_se: Their standard errors (batch means).
+        e_down, e_up: (P,) downwelling and upwelling plane irradiance (direct light included).
+        e_down_se, e_up_se: Their standard errors.
+        absorbed: (P,) absorption in the layer below each plane.
+        escaped_up: Leaving through the surface.
+        lost_bottom: Lost below ``tau_bottom``.
+        roulette_net: Roulette losses minus gains (zero in expectation).
+        photons: Histories run.
+        omega0: b/c.
+        c_per_m: Beam attenuation of the water (to turn optical depths into metres).
+        n_water: The surface's index.
+    """
+
+    grid: Grid
+    source: str
+    sun_zenith_water_deg: float
+    single: FloatArray
+    multiple: FloatArray
+    single_se: FloatArray
+    multiple_se: FloatArray
+    e_down: FloatArray
+    e_up: FloatArray
+    e_down_se: FloatArray
+    e_up_se: FloatArray
+    absorbed: FloatArray
+    escaped_up: float
+    lost_bottom: float
+    roulette_net: float
+    photons: int
+    omega0: float
+    c_per_m: float
+    n_water: float
+
+    @property
+    def total(self) -> FloatArray:
+        """All scattered light, single + multiple."""
+        return self.single + self.multiple
+
+    def total_se(self, k: int) -> FloatArray:
+        """Standard error of :attr:`total` at plane k.
+
+        Single and multiple added in quadrature (they share histories: an approximation).
+        """
+        return np.hypot(self.single_se[k], self.multiple_se[k])
+
+    def depths_m(self) -> FloatArray:
+        """The planes' depths in metres."""
+        return np.asarray(self.grid.planes) / self.c_per_m
+
+
+def beam_polarization(sun_zenith_air_rad: float, n_water: float) -> float:
+    """Q/I (meridian reference) of unpolarized sunlight after Fresnel transmission."""
+    e = fresnel_elements(math.cos(sun_zenith_air_rad), N_AIR, n_water, "flux")
+    m00 = float(e.m00)
+    return float(e.m01) / m00 if m00 > 0 else 0.0
+
+
+def sky_source_tables(
+    n_water: float, size: int = 2049
+) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+    """A uniform unpolarized sky's photons below a flat surface.
+
+    The transmitted flux per air direction is L T(θ_a) cos θ_a dΩ_a; the start directions are
+    drawn cosine-weighted in air (so uniform in sin²θ_a) and weighted by T/T̄.
+
+    Returns:
+        (in-water cos θ at uniform probabilities, weight, Q/I, T̄ = the flat sea's diffuse
+        transmittance for a uniform sky).
+    """
+    prob = np.linspace(0.0, 1.0, size)
+    sin_a = np.sqrt(prob)
+    cos_a = np.sqrt(np.maximum(1.0 - prob, 0.0))
+    e = fresnel_elements(cos_a, N_AIR, n_water, "flux")
+    t = np.asarray(e.m00, dtype=float)
+    q = np.divide(np.asarray(e.m01, dtype=float), t, out=np.zeros_like(t), where=t > 0)
+    # ∫ T d(sin²θ_a) by the trapezoid rule on the uniform grid.
+    t_mean = float(np.trapezoid(t, prob))
+    sin_w = sin_a / n_water
+    cos_w = np.sqrt(1.0 - sin_w * sin_w)
+    return cos_w, t / t_mean, q, t_mean
+
+
+def solve(
+    a_per_m: float,
+    b_molecular_per_m: float,
+    b_particle_per_m: float,
+    particle_backscatter_ratio: float,
+    *,
+    source: str = "sun",
+    sun_zenith_air_deg: float = 30.0,
+    n_water: float = 1.34,
+    grid: Grid | None = None,
+    photons: int = 200_000,
+    batches: int = 10,
+    seed: int | np.random.Generator = 0,
+    tau_bottom: float | None = None,
+) -> LightField:
+    """Run the reference for one water body and one source.
+
+    Args:
+        a_per_m: Absorption a.
+        b_molecular_per_m: Molecular scattering b_w.
+        b_particle_per_m: Particle scattering b_p.
+        particle_backscatter_ratio: b_bp/b_p (sets the Fournier–Forand slope).
+        source: "sun" (the refracted beam of a sun at ``sun_zenith_air_deg``) or "sky".
+        sun_zenith_air_deg: The sun's zenith angle in air, [0, 90).
+        n_water: Water index.
+        grid: Scoring planes and nodes (default :class:`Grid`).
+        photons: Histories in all (split over ``batches``).
+        batches: Independent batches for the standard errors (>= 2).
+        seed: Seed or numpy Generator; each batch's kernel seed is drawn from it.
+        tau_bottom: Depth (optical) of the black, deep bottom; default deepest plane + 20.
+
+    Returns:
+        :class:`LightField`.
+    """
+    if source not in ("sun", "sky"):
+        raise ValueError(f"source must be 'sun' or 'sky', got {source!r}")
+    if not (0.0 <= sun_zenith_air_deg < 90.0):
+        raise ValueError(f"sun_zenith_air_deg must lie in [0, 90), got {sun_zenith_air_deg!r}")
+    if not (a_per_m > 0 and b_molecular_per_m >= 0 and b_particle_per_m >= 0):
+        raise ValueError("a must be > 0 and b_w, b_p >= 0")
+    if b_molecular_per_m + b_particle_per_m <= 0:
+        raise ValueError("the water must scatter (b_w + b_p > 0)")
+    if batches < 2 or photons < batches:
+        raise ValueError(f"need batches >= 2 and photons >= batches, got {photons}, {batches}")
+    g = grid or Grid()
+    b = b_molecular_per_m + b_particle_per_m
+    c = a_per_m + b
+    omega0 = b / c
+    pm = scattering.phase_matrix(b_molecular_per_m, b_particle_per_m, particle_backscatter_ratio)
+    icdf = scattering.inverse_cdf_cos(pm)
+    mu_table = np.stack([pm.beta, pm.m12, pm.m22, pm.m33, pm.m44])
+    planes = np.asarray(g.planes, dtype=np.float64)
+    bottom = float(planes[-1] + 20.0) if tau_bottom is None else float(tau_bottom)
+    if bottom <= planes[-1]:
+        raise ValueError("tau_bottom must lie below the deepest plane")
+    edges_cos = np.cos(np.radians(np.asarray(g.theta_edges_deg, dtype=np.float64)))
+    edges_cos[0], edges_cos[-1] = 1.0, -1.0
+    n_t, n_p = len(g.theta_edges_deg) - 1, g.n_phi
+    sky_mu, sky_w, sky_q, _ = sky_source_tables(n_water)
+    if source == "sun":
+        theta_w = math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
+        beam_q = beam_polarization(math.radians(sun_zenith_air_deg), n_water)
+    else:
+        theta_w, beam_q = 0.0, 0.0
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    seeds = rng.integers(0, 2**31 - 1, size=batches)
+    n_pl = len(planes)
+    per_batch = [photons // batches + (1 if i < photons % batches else 0) for i in range(batches)]
+    rads, irrs = [], []
+    absorbed = np.zeros(n_pl)
+    totals = np.zeros(4)
+    for nb, sd in zip(per_batch, seeds, strict=True):
+        rad = np.zeros((2, n_pl, n_t, n_p, 3))
+        irr = np.zeros((n_pl, 2))
+        kernel.transport(
+            nb, int(sd), 0 if source == "sun" else 1, theta_w, beam_q, omega0, n_water,
+            icdf, mu_table, sky_mu, sky_w, sky_q, planes, bottom, edges_cos, n_p,
+            rad, irr, absorbed, totals,
+        )  # fmt: skip
+        rads.append(rad / nb)
+        irrs.append(irr / nb)
+    rad_b = np.stack(rads) / g.solid_angle_mu()[None, None, None, :, :, None]
+    irr_b = np.stack(irrs)
+    wts = np.asarray(per_batch, dtype=float) / photons
+
+    def mean_se(x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        m = np.tensordot(wts, x, axes=1)
+        se = np.std(x, axis=0, ddof=1) / math.sqrt(len(x))
+        return m, se
+
+    rm, rse = mean_se(rad_b)
+    im, ise = mean_se(irr_b)
+    return LightField(
+        grid=g,
+        source=source,
+        sun_zenith_water_deg=math.degrees(theta_w) if source == "sun" else math.nan,
+        single=rm[0],
+        multiple=rm[1],
+        single_se=rse[0],
+        multiple_se=rse[1],
+        e_down=im[:, 0],
+        e_up=im[:, 1],
+        e_down_se=ise[:, 0],
+        e_up_se=ise[:, 1],
+        absorbed=absorbed / photons,
+        escaped_up=float(totals[0] / photons),
+        lost_bottom=float(totals[1] / photons),
+        roulette_net=float((totals[2] - totals[3]) / photons),
+        photons=int(photons),
+        omega0=omega0,
+        c_per_m=c,
+        n_water=float(n_water),
+    )

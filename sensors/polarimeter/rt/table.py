@@ -1,0 +1,404 @@
+"""The light-field table: the reference, tabulated over sun zenith and depth, for the renderer.
+
+For one water body (a, b_w, b_p, b_bp/b_p at one wavelength; the optical depth c z and the
+single-scattering albedo b/c follow from them) the table holds, from
+:func:`sensors.polarimeter.rt.reference.solve`:
+
+* ``sun``: the **multiply scattered** Stokes radiance of the refracted sun beam (everything but the
+  direct beam and the closed-form single scattering the renderer computes itself), per unit
+  downwelling plane irradiance of the beam just below the surface, at in-water sun zeniths
+  ``sun_zenith_water_deg`` × planes × look-direction bins;
+* ``sky``: all the scattered light of a uniform unpolarized sky (per unit plane irradiance below the
+  surface; azimuthally symmetric, so (planes, look zenith) only): the renderer's direct sky light is
+  exact, its scattered part comes from here;
+* the downwelling irradiances at the planes (for depth interpolation) and the standard error of
+  the sun field's radiance.
+
+Per frame, :meth:`LightFieldTable.frame` interpolates to the frame's sun zenith (linear) and depth
+(linear in the field normalised by E_d, E_d itself log-linear; past the deepest plane the shape is
+held and E_d decays at the deepest planes' rate — the asymptotic regime), and returns a
+:class:`FrameField` the per-pixel kernel samples bilinearly, never across Snell's window edge
+(the upwelling light's total internal reflection makes a step there).
+
+Tables for the Jerlov types (:data:`sensors.polarimeter.water.JERLOV_500NM`, turbidity 1) ship in
+``sensors/polarimeter/data/lightfield_jerlov_500nm.npz``, built by
+``python benchmarks/build_lightfield_table.py``; any other water is computed on first use (about a
+minute on one core for most waters) and cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sensors.polarimeter.rt import reference
+
+FloatArray = NDArray[np.floating]
+
+#: Air zenith angles of the sun at which the table is computed (degrees).
+SUN_ZENITH_AIR_DEG: tuple[float, ...] = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0, 87.0)
+#: The table's planes, optical depths c z.
+TABLE_PLANES: tuple[float, ...] = (
+    0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0, 20.0,
+)  # fmt: skip
+#: Water index the tables are computed for (500 nm, S = 35, T ≈ 15–20 °C: Quan & Fry 1995).
+TABLE_INDEX = 1.34
+#: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
+SHIPPED_PHOTONS = 1_500_000
+#: Histories per source for tables computed on first use.
+FIRST_USE_PHOTONS = 200_000
+
+DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "lightfield_jerlov_500nm.npz"
+
+
+@dataclass(frozen=True, slots=True)
+class WaterKey:
+    """What a table depends on (besides the fixed grid and index)."""
+
+    a_per_m: float
+    b_molecular_per_m: float
+    b_particle_per_m: float
+    particle_backscatter_ratio: float
+
+    @classmethod
+    def of(cls, water: object) -> WaterKey:
+        """From a :class:`sensors.polarimeter.water.WaterOptics`."""
+        return cls(
+            round(float(water.a_per_m), 9),  # type: ignore[attr-defined]
+            round(float(water.b_molecular_per_m), 9),  # type: ignore[attr-defined]
+            round(float(water.b_particle_per_m), 9),  # type: ignore[attr-defined]
+            round(float(water.particle_backscatter_ratio), 9),  # type: ignore[attr-defined]
+        )
+
+    def digest(self) -> str:
+        """A short stable name for the cache."""
+        text = (
+            f"{self.a_per_m:.9g},{self.b_molecular_per_m:.9g},{self.b_particle_per_m:.9g},"
+            f"{self.particle_backscatter_ratio:.9g},{TABLE_INDEX},{SUN_ZENITH_AIR_DEG},"
+            f"{TABLE_PLANES}"
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @property
+    def c_per_m(self) -> float:
+        """Beam attenuation c = a + b."""
+        return self.a_per_m + self.b_molecular_per_m + self.b_particle_per_m
+
+
+@dataclass(frozen=True)
+class FrameField:
+    """One frame's scattered-light grid (radiance units of the irradiances given to ``frame``).
+
+    Attributes:
+        inside: (T_in + 2, n_phi + 2, 3) Stokes at the bins inside Snell's window, padded: the
+            first and last rows repeat the first/last bin at the zenith and at the window's edge
+            (constant extrapolation), the first/last columns mirror the first/last azimuth bin
+            (U changes sign under the mirror).
+        inside_theta: (T_in + 2,) the rows' look zeniths (radians): 0, bin centres, θ_c.
+        outside: (T_out + 2, n_phi + 2, 3) the same from the window's edge to the nadir.
+        outside_theta: (T_out + 2,) θ_c, bin centres, π.
+        theta_c: The table's window edge (radians).
+        dphi: Azimuth bin width (radians); padded column j sits at (j − ½) dphi.
+    """
+
+    inside: FloatArray
+    inside_theta: FloatArray
+    outside: FloatArray
+    outside_theta: FloatArray
+    theta_c: float
+    dphi: float
+
+
+@dataclass(frozen=True)
+class LightFieldTable:
+    """Multiply scattered light of one water body over sun zenith and depth (module docstring)."""
+
+    key: WaterKey
+    sun_zenith_water_deg: FloatArray
+    planes: FloatArray
+    theta_edges_deg: FloatArray
+    n_phi: int
+    sun: FloatArray
+    sun_se: FloatArray
+    e_down_sun: FloatArray
+    sky: FloatArray
+    e_down_sky: FloatArray
+    photons: int
+
+    # ---- build, save, load -------------------------------------------------------------------
+    @classmethod
+    def build(
+        cls, key: WaterKey, photons: int = FIRST_USE_PHOTONS, seed: int = 0, workers: int = 1
+    ) -> LightFieldTable:
+        """Run the reference for every sun node and the sky (``workers`` processes)."""
+        grid = reference.Grid(planes=TABLE_PLANES)
+        jobs = [("sun", z) for z in SUN_ZENITH_AIR_DEG] + [("sky", 0.0)]
+        seeds = np.random.SeedSequence(seed).spawn(len(jobs))
+        args = [
+            (key, src, z, grid, photons, int(s.generate_state(1)[0]))
+            for (src, z), s in zip(jobs, seeds, strict=True)
+        ]
+        if workers > 1:
+            with ProcessPoolExecutor(workers) as ex:
+                fields = list(ex.map(_solve_one, args))
+        else:
+            fields = [_solve_one(a) for a in args]
+        suns, sky = fields[:-1], fields[-1]
+        return cls(
+            key=key,
+            sun_zenith_water_deg=np.array([f.sun_zenith_water_deg for f in suns]),
+            planes=np.asarray(TABLE_PLANES, dtype=float),
+            theta_edges_deg=np.asarray(grid.theta_edges_deg, dtype=float),
+            n_phi=grid.n_phi,
+            sun=np.stack([f.multiple for f in suns]).astype(np.float32),
+            sun_se=np.stack([f.multiple_se[..., 0] for f in suns]).astype(np.float16),
+            e_down_sun=np.stack([f.e_down for f in suns]),
+            sky=sky.total.mean(axis=2).astype(np.float32),  # uniform sky: average the azimuth
+            e_down_sky=np.asarray(sky.e_down),
+            photons=int(photons),
+        )
+
+    def arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
+        """The table as named arrays (for ``np.savez``)."""
+        k = self.key
+        return {
+            f"{prefix}key": np.array(
+                [k.a_per_m, k.b_molecular_per_m, k.b_particle_per_m, k.particle_backscatter_ratio]
+            ),
+            f"{prefix}sun_zenith_water_deg": self.sun_zenith_water_deg,
+            f"{prefix}planes": self.planes,
+            f"{prefix}theta_edges_deg": self.theta_edges_deg,
+            f"{prefix}n_phi": np.array(self.n_phi),
+            # Per unit E_d of its plane, the field spans a few decades: float16 keeps 3 digits
+            # (the Monte Carlo error is ~3 %) in half the bytes.
+            f"{prefix}sun_per_ed": _per(self.sun, self.e_down_sun[:, :, None, None, None]),
+            f"{prefix}sun_se_per_ed": _per(self.sun_se, self.e_down_sun[:, :, None, None]),
+            f"{prefix}e_down_sun": self.e_down_sun,
+            f"{prefix}sky": self.sky,
+            f"{prefix}e_down_sky": self.e_down_sky,
+            f"{prefix}photons": np.array(self.photons),
+        }
+
+    @classmethod
+    def from_arrays(
+        cls, d: dict[str, np.ndarray] | np.lib.npyio.NpzFile, prefix: str = ""
+    ) -> LightFieldTable:
+        """Inverse of :meth:`arrays`."""
+        k = d[f"{prefix}key"]
+        ed = np.asarray(d[f"{prefix}e_down_sun"], dtype=float)
+        return cls(
+            key=WaterKey(*(round(float(v), 9) for v in k)),
+            sun_zenith_water_deg=np.asarray(d[f"{prefix}sun_zenith_water_deg"], dtype=float),
+            planes=np.asarray(d[f"{prefix}planes"], dtype=float),
+            theta_edges_deg=np.asarray(d[f"{prefix}theta_edges_deg"], dtype=float),
+            n_phi=int(d[f"{prefix}n_phi"]),
+            sun=np.nan_to_num(
+                np.asarray(d[f"{prefix}sun_per_ed"], dtype=np.float32) * ed[:, :, None, None, None]
+            ),
+            sun_se=np.nan_to_num(
+                np.asarray(d[f"{prefix}sun_se_per_ed"], dtype=np.float32) * ed[:, :, None, None]
+            ),
+            e_down_sun=ed,
+            sky=np.asarray(d[f"{prefix}sky"], dtype=np.float32),
+            e_down_sky=np.asarray(d[f"{prefix}e_down_sky"], dtype=float),
+            photons=int(d[f"{prefix}photons"]),
+        )
+
+    @functools.cached_property
+    def _smooth(self) -> tuple[FloatArray, FloatArray]:
+        """The sun and sky fields with the rings next to the zenith and the nadir reduced to what
+        a smooth field has there: I = mean + a cos φ gradient, (Q, U) the m = 2 pattern of a
+        fixed polarization in the meridian frame (I, Q even in φ, U odd). Those rings' bins have
+        the smallest solid angles, hence the largest Monte Carlo noise, and converge on one
+        point, where per-bin noise would make the field jump."""
+        sun = self.sun.copy()
+        for r in (0, -1):
+            sun[..., r, :, :] = _pole_ring(sun[..., r, :, :], self.n_phi)
+        return sun, self.sky
+
+    # ---- per frame -----------------------------------------------------------------------------
+    def frame(
+        self,
+        sun_zenith_water_rad: float,
+        tau_c: float,
+        e_sun_plane: float,
+        e_sky_plane: float,
+        n_water: float = TABLE_INDEX,
+    ) -> FrameField:
+        """The scattered-light grid of one frame.
+
+        Args:
+            sun_zenith_water_rad: Zenith of the refracted sun in this frame's water.
+            tau_c: The camera's optical depth c z (>= 0).
+            e_sun_plane: Downwelling plane irradiance of the sun beam just below the surface.
+            e_sky_plane: Downwelling plane irradiance of the sky just below the surface.
+            n_water: This frame's index: the sun zenith is mapped to the table's water by the
+                ratio of the critical angles, so that a grazing sun stays grazing.
+        """
+        tc_t = math.asin(1.0 / TABLE_INDEX)
+        tc = math.asin(1.0 / n_water)
+        th = min(max(sun_zenith_water_rad, 0.0), tc) * tc_t / tc
+        zn = np.radians(self.sun_zenith_water_deg)
+        i = int(np.clip(np.searchsorted(zn, th) - 1, 0, len(zn) - 2))
+        f = float(np.clip((th - zn[i]) / (zn[i + 1] - zn[i]), 0.0, 1.0))
+        sun_t, sky_t = self._smooth
+        sun = (1.0 - f) * self._at_depth(sun_t[i], self.e_down_sun[i], tau_c) + f * (
+            self._at_depth(sun_t[i + 1], self.e_down_sun[i + 1], tau_c)
+        )
+        sky = self._at_depth(sky_t, self.e_down_sky, tau_c)
+        g = e_sun_plane * sun + e_sky_plane * sky[:, None, :]
+        g = g.astype(np.float32)
+        return self._pad(g)
+
+    def _at_depth(self, field: FloatArray, e_down: FloatArray, tau: float) -> FloatArray:
+        # Planes no history reached (in weakly scattering water c z = 20 is e^-20 of the surface
+        # light) end the table early: past the last reached plane, the asymptotic extrapolation.
+        dark = np.flatnonzero(e_down <= 0)
+        reached = int(dark[0]) if dark.size else len(e_down)
+        p = self.planes[:reached]
+        ed = e_down[:reached]
+        field = field[:reached]
+        if tau >= p[-1]:
+            k_inf = math.log(ed[-2] / ed[-1]) / (p[-1] - p[-2])
+            return field[-1] * math.exp(-k_inf * (tau - p[-1]))
+        k = int(np.clip(np.searchsorted(p, tau, side="right") - 1, 0, len(p) - 2))
+        t = (tau - p[k]) / (p[k + 1] - p[k])
+        e = math.exp((1 - t) * math.log(ed[k]) + t * math.log(ed[k + 1]))
+        return ((1 - t) * field[k] / ed[k] + t * field[k + 1] / ed[k + 1]) * e
+
+    def _pad(self, g: FloatArray) -> FrameField:
+        edges = np.radians(self.theta_edges_deg)
+        tc = math.asin(1.0 / TABLE_INDEX)
+        n_in = int(np.argmin(np.abs(edges - tc)))
+        parts = []
+        phi = (np.arange(self.n_phi) + 0.5) * math.pi / self.n_phi
+        for rows, e in ((g[:n_in], edges[: n_in + 1]), (g[n_in:], edges[n_in:])):
+            first, last = rows[:1].copy(), rows[-1:].copy()
+            # At the zenith and the nadir the light has one radiance and one polarization: the
+            # ring's mean I, and the m = 2 harmonic of (Q, U) that a fixed polarization has in
+            # the meridian frame.
+            if e[0] == 0.0:
+                first = _pole(rows[0], phi)[None]
+            if e[-1] == math.pi:
+                last = _pole(rows[-1], phi)[None]
+            r = np.concatenate([first, rows, last], axis=0)
+            lo = r[:, :1].copy()
+            lo[..., 2] *= -1.0
+            hi = r[:, -1:].copy()
+            hi[..., 2] *= -1.0
+            grid = np.ascontiguousarray(np.concatenate([lo, r, hi], axis=1))
+            theta = np.concatenate([[e[0]], 0.5 * (e[1:] + e[:-1]), [e[-1]]])
+            parts.append((grid, theta))
+        (gin, tin), (gout, tout) = parts
+        return FrameField(gin, tin, gout, tout, tc, math.pi / self.n_phi)
+
+
+def _per(field: FloatArray, e_down: FloatArray) -> FloatArray:
+    """field / E_d as float16 (0 where no history reached the plane)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(e_down > 0, field / np.where(e_down > 0, e_down, 1.0), 0.0).astype(
+            np.float16
+        )
+
+
+def _pole_ring(rings: FloatArray, n_phi: int) -> FloatArray:
+    """(..., n_phi, 3) rings projected on I: {1, cos φ}, Q: {1, cos 2φ}, U: {sin 2φ}."""
+    phi = (np.arange(n_phi) + 0.5) * math.pi / n_phi
+    out = np.empty_like(rings)
+    for i, basis in enumerate(
+        (
+            np.stack([np.ones_like(phi), np.cos(phi)], 1),
+            np.stack([np.ones_like(phi), np.cos(2 * phi)], 1),
+            np.sin(2 * phi)[:, None],
+        )
+    ):
+        proj = basis @ np.linalg.pinv(basis)
+        out[..., i] = np.einsum("ij,...j->...i", proj, rings[..., i])
+    np.maximum(out[..., 0], 0.0, out=out[..., 0])
+    return out
+
+
+def _pole(ring: FloatArray, phi: FloatArray) -> FloatArray:
+    """(n_phi, 3) the zenith's (or nadir's) Stokes in each column's meridian frame."""
+    c2, s2 = np.cos(2 * phi), np.sin(2 * phi)
+    a = 2.0 * np.mean(ring[:, 1] * c2)  # Q = a cos 2φ (the ring's own m = 2 terms)
+    b = 2.0 * np.mean(ring[:, 2] * s2)  # U = b sin 2φ
+    out = np.empty_like(ring)
+    out[:, 0] = ring[:, 0].mean()
+    out[:, 1] = a * c2
+    out[:, 2] = b * s2
+    return out
+
+
+def _solve_one(args: tuple) -> reference.LightField:
+    key, src, z, grid, photons, seed = args
+    return reference.solve(
+        key.a_per_m,
+        key.b_molecular_per_m,
+        key.b_particle_per_m,
+        key.particle_backscatter_ratio,
+        source=src,
+        sun_zenith_air_deg=z,
+        n_water=TABLE_INDEX,
+        grid=grid,
+        photons=photons,
+        batches=10,
+        seed=seed,
+    )
+
+
+def cache_dir() -> Path:
+    """Where tables computed on first use are kept."""
+    return (
+        Path(os.environ.get("AUV_TWIN_CACHE", Path.home() / ".cache" / "auv-twin")) / "lightfield"
+    )
+
+
+@functools.lru_cache(maxsize=1)
+def _shipped() -> dict[WaterKey, LightFieldTable]:
+    if not DATA_FILE.exists():
+        return {}
+    out = {}
+    with np.load(DATA_FILE) as d:
+        names = [str(n) for n in d["names"]]
+        for name in names:
+            t = LightFieldTable.from_arrays(d, prefix=f"{name}/")
+            out[t.key] = t
+    return out
+
+
+@functools.lru_cache(maxsize=32)
+def table_for(key: WaterKey) -> LightFieldTable:
+    """The table of a water body: shipped, cached, or computed now (and cached)."""
+    shipped = _shipped()
+    if key in shipped:
+        return shipped[key]
+    path = cache_dir() / f"{key.digest()}.npz"
+    if path.exists():
+        with np.load(path) as d:
+            return LightFieldTable.from_arrays(d)
+    print(
+        f"auv-twin: computing the radiative-transfer table for water a={key.a_per_m:g}, "
+        f"b_w={key.b_molecular_per_m:g}, b_p={key.b_particle_per_m:g} /m "
+        f"({len(SUN_ZENITH_AIR_DEG) + 1} Monte Carlo runs of {FIRST_USE_PHOTONS} photons; "
+        f"cached in {path.parent})",
+        file=sys.stderr,
+    )
+    t = LightFieldTable.build(key, FIRST_USE_PHOTONS, seed=0, workers=1)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez_compressed(tmp, **t.arrays())
+        tmp.replace(path)
+    except OSError as e:  # an unwritable cache costs time, not correctness
+        print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
+    return t

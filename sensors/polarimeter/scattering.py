@@ -1,0 +1,230 @@
+"""The scattering phase matrix of sea water: molecules plus particles, one Mueller matrix.
+
+Both the closed-form single scattering of the renderer (:mod:`sensors.polarimeter.water`) and the
+radiative-transfer reference (:mod:`sensors.polarimeter.rt`) scatter with this matrix, so the
+reference's optically thin limit and the renderer's single scattering are the same physics.
+
+The volume scattering function is β(Θ) = b_w p_w(Θ) + b_p p_p(Θ) and the normalised phase matrix
+(in the scattering-plane reference, Stokes (I, Q, U, V), m11 = 1)::
+
+    M(Θ) = [[1,   m12, 0,    0  ],
+            [m12, m22, 0,    0  ],
+            [0,   0,   m33,  0  ],
+            [0,   0,   0,    m44]]
+
+each element the β-weighted mean of the two components' normalised matrices:
+
+* **Molecules** (pure sea water): the Rayleigh matrix with the depolarization ratio δ of the
+  anisotropic water molecule (Hansen & Travis 1974, Space Sci. Rev. 16:527, eq. 2.15;
+  Chandrasekhar 1950 §18): with Δ = (1 − δ)/(1 + δ/2), Δ' = (1 − 2δ)/(1 − δ),
+  P11 = ¾Δ(1 + cos²Θ) + (1 − Δ), P12 = −¾Δ sin²Θ, P22 = ¾Δ(1 + cos²Θ), P33 = (3/2)Δ cos Θ,
+  P44 = (3/2)ΔΔ' cos Θ. δ = 0.09 (Morel 1974, "Optical properties of pure water and pure sea
+  water", in *Optical Aspects of Oceanography*): P11 ∝ 1 + 0.835 cos²Θ, the molecular phase
+  function :func:`molecular_phase` has always used, and DoP 0.835 at 90°.
+* **Particles**: the Fournier–Forand phase function (below), with the reduced Mueller matrix of
+  the Voss & Fry (1984, Appl. Opt. 23:4427) ocean average in the Rayleigh-like form that
+  Kattawar & Adams (1989, Limnol. Oceanogr. 34:1453) and later polarized ocean codes use:
+  m12 = −P sin²Θ/(1 + cos²Θ), m22 = 1, m33 = m44 = 2 cos Θ/(1 + cos²Θ), with the peak linear
+  polarization P = 0.8 near 90° [uncertain: Voss & Fry's figure is recalled, not re-read; their
+  measured m12 peaks between −0.7 and −0.9]. The form keeps m22 = 1 and m33 → 1 in the forward
+  direction, so the many small-angle scatterings by particles do not depolarize, as measured;
+  it is a physical Mueller matrix (m12² + m33² ≤ 1 for every Θ).
+
+Circular polarization V is carried by the reference (total internal reflection at the surface
+turns linear into circular polarization) but never produced by scattering (m34 = 0 for both).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import brentq
+
+FloatArray = NDArray[np.floating]
+
+#: Depolarization ratio of sea water (Morel 1974): P11 ∝ 1 + 0.835 cos²Θ.
+WATER_DEPOLARIZATION_RATIO = 0.09
+#: Peak linear polarization of ocean particle scattering, Voss & Fry (1984) [uncertain].
+PARTICLE_DOP_MAX = 0.8
+#: Fournier–Forand particle index relative to water (Mobley, Sundman & Boss 2002).
+FF_INDEX = 1.10
+
+
+def fournier_forand(cos_psi: ArrayLike, n_p: float = 1.10, mu: float = 3.5835) -> FloatArray:
+    """Fournier–Forand phase function p̃(ψ) (sr⁻¹, ∫ p̃ dΩ = 1).
+
+    Fournier & Forand (1994) SPIE 2258:194, normalised as in Fournier & Jonasz (1999) SPIE
+    3761:62 and Mobley et al. (2002) Appl. Opt. 41(6):1035 (optics.md §2.5)::
+
+        δ = 4 sin²(ψ/2) / (3 (n_p − 1)²),  ν = (3 − μ)/2,  δ₁₈₀ = δ(π)
+        p̃ = [ν(1 − δ) − (1 − δ^ν) + (δ(1 − δ^ν) − ν(1 − δ)) / sin²(ψ/2)] / (4π (1 − δ)² δ^ν)
+            + (1 − δ₁₈₀^ν)(3 cos²ψ − 1) / (16π (δ₁₈₀ − 1) δ₁₈₀^ν)
+
+    n_p is the particles' relative index, μ the Junge slope. The forward peak diverges
+    (integrably) as ψ → 0; ψ is clamped at 1e-4 rad. Near δ = 1 the bracket cancels to second
+    order (a removable singularity); δ is kept 1e-4 away from 1 there.
+
+    Args:
+        cos_psi: Cosines of the scattering angle.
+        n_p: Particle refractive index relative to water (> 1).
+        mu: Junge (hyperbolic) size-distribution slope, 3 < μ <= 5.
+    """
+    c = np.clip(np.asarray(cos_psi, dtype=np.float64), -1.0, math.cos(1e-4))
+    s2 = 0.5 * (1.0 - c)  # sin²(ψ/2)
+    k = 4.0 / (3.0 * (n_p - 1.0) ** 2)
+    nu = 0.5 * (3.0 - mu)
+    d = k * s2
+    d = np.where(np.abs(d - 1.0) < 1e-4, np.where(d < 1.0, 1.0 - 1e-4, 1.0 + 1e-4), d)
+    dn = d**nu
+    first = (nu * (1 - d) - (1 - dn) + (d * (1 - dn) - nu * (1 - d)) / s2) / (
+        4 * math.pi * (1 - d) ** 2 * dn
+    )
+    d180 = k
+    d180n = d180**nu
+    second = (1 - d180n) * (3 * c * c - 1) / (16 * math.pi * (d180 - 1) * d180n)
+    return first + second
+
+
+def ff_backscatter_fraction(n_p: float, mu: float) -> float:
+    """Backscatter fraction B of the Fournier–Forand function (Mobley et al. 2002, eq. 2).
+
+    B = 1 − [1 − δ₉₀^(ν+1) − ½(1 − δ₉₀^ν)] / [(1 − δ₉₀) δ₉₀^ν], δ₉₀ = δ(ψ = 90°).
+    """
+    nu = 0.5 * (3.0 - mu)
+    d90 = 4.0 / (3.0 * (n_p - 1.0) ** 2) * 0.5
+    return 1.0 - (1.0 - d90 ** (nu + 1) - 0.5 * (1.0 - d90**nu)) / ((1.0 - d90) * d90**nu)
+
+
+@functools.lru_cache(maxsize=64)
+def ff_slope_for_backscatter(backscatter_ratio: float, n_p: float = 1.10) -> float:
+    """The Junge slope μ that gives a Fournier–Forand backscatter fraction B at index n_p.
+
+    Mobley et al. (2002) fix n_p = 1.10 and vary μ; B = 0.0183 ⇒ μ ≈ 3.5835.
+    """
+    return float(brentq(lambda m: ff_backscatter_fraction(n_p, m) - backscatter_ratio, 3.001, 5.0))
+
+
+def _molecular_delta() -> tuple[float, float]:
+    d = WATER_DEPOLARIZATION_RATIO
+    return (1.0 - d) / (1.0 + 0.5 * d), (1.0 - 2.0 * d) / (1.0 - d)
+
+
+def molecular_phase(cos_psi: ArrayLike) -> FloatArray:
+    """Pure-seawater phase function P11/(4π) = (¾Δ(1 + cos²ψ) + 1 − Δ)/(4π) (∝ 1 + 0.835 cos²ψ)."""
+    c = np.asarray(cos_psi)
+    big_d, _ = _molecular_delta()
+    return (0.75 * big_d * (1.0 + c * c) + (1.0 - big_d)) / (4.0 * math.pi)
+
+
+@dataclass(frozen=True, slots=True)
+class PhaseMatrix:
+    """The mixture's phase function and normalised Mueller elements on a table in u = sin(Θ/2).
+
+    Attributes:
+        u: (K,) table nodes, uniform in [0, 1] (fine near the forward peak).
+        beta: (K,) volume scattering function β(Θ) = b p(Θ), m⁻¹ sr⁻¹.
+        m12, m22, m33, m44: (K,) normalised elements (m11 = 1).
+        b_molecular_per_m: b_w.
+        b_particle_per_m: b_p.
+        ff_slope: The Fournier–Forand Junge slope of the particles.
+    """
+
+    u: FloatArray
+    beta: FloatArray
+    m12: FloatArray
+    m22: FloatArray
+    m33: FloatArray
+    m44: FloatArray
+    b_molecular_per_m: float
+    b_particle_per_m: float
+    ff_slope: float
+
+    @property
+    def b_per_m(self) -> float:
+        """Total scattering coefficient b."""
+        return self.b_molecular_per_m + self.b_particle_per_m
+
+    def beta_exact(self, cos_theta: ArrayLike) -> FloatArray:
+        """β(Θ) from the formulas (not the table), m⁻¹ sr⁻¹."""
+        c = np.asarray(cos_theta, dtype=np.float64)
+        out = self.b_molecular_per_m * molecular_phase(c)
+        if self.b_particle_per_m > 0:
+            out = out + self.b_particle_per_m * fournier_forand(c, FF_INDEX, self.ff_slope)
+        return out
+
+    def index(self, cos_theta: ArrayLike) -> NDArray[np.intp]:
+        """Nearest table index of each cos Θ."""
+        c = np.asarray(cos_theta, dtype=np.float64)
+        u = np.sqrt(np.maximum(0.5 - 0.5 * c, 0.0))
+        return np.clip((u * (len(self.u) - 1) + 0.5).astype(np.intp), 0, len(self.u) - 1)
+
+    def elements(self, cos_theta: ArrayLike) -> tuple[FloatArray, ...]:
+        """(β, m12, m22, m33, m44) at each cos Θ, linearly interpolated in u."""
+        c = np.asarray(cos_theta, dtype=np.float64)
+        u = np.sqrt(np.maximum(0.5 - 0.5 * c, 0.0))
+        return tuple(
+            np.interp(u, self.u, t) for t in (self.beta, self.m12, self.m22, self.m33, self.m44)
+        )
+
+
+def phase_matrix(
+    b_molecular_per_m: float,
+    b_particle_per_m: float,
+    particle_backscatter_ratio: float,
+    size: int = 8192,
+    particle_dop_max: float = PARTICLE_DOP_MAX,
+) -> PhaseMatrix:
+    """Tabulate the mixture's β and normalised Mueller matrix (module docstring).
+
+    Args:
+        b_molecular_per_m: Molecular scattering b_w.
+        b_particle_per_m: Particle scattering b_p.
+        particle_backscatter_ratio: B = b_bp/b_p, sets the Fournier–Forand slope.
+        size: Table length (uniform in sin(Θ/2)).
+        particle_dop_max: P of the particle matrix.
+    """
+    u = np.linspace(0.0, 1.0, size)
+    c = 1.0 - 2.0 * u * u
+    s2 = 1.0 - c * c
+    big_d, big_dp = _molecular_delta()
+    p11_m = 0.75 * big_d * (1.0 + c * c) + (1.0 - big_d)
+    bm = b_molecular_per_m * p11_m / (4.0 * math.pi)
+    mm = (
+        -0.75 * big_d * s2 / p11_m,
+        0.75 * big_d * (1.0 + c * c) / p11_m,
+        1.5 * big_d * c / p11_m,
+        1.5 * big_d * big_dp * c / p11_m,
+    )
+    slope = ff_slope_for_backscatter(float(particle_backscatter_ratio), FF_INDEX)
+    if b_particle_per_m > 0:
+        bp = b_particle_per_m * fournier_forand(c, FF_INDEX, slope)
+    else:
+        bp = np.zeros_like(c)
+    r = 2.0 * c / (1.0 + c * c)
+    mp = (-particle_dop_max * s2 / (1.0 + c * c), np.ones_like(c), r, r)
+    beta = bm + bp
+    safe = np.where(beta > 0, beta, 1.0)
+    el = [(bm * a + bp * b) / safe for a, b in zip(mm, mp, strict=True)]
+    return PhaseMatrix(u, beta, *el, float(b_molecular_per_m), float(b_particle_per_m), slope)
+
+
+def inverse_cdf_cos(pm: PhaseMatrix, size: int = 65537) -> FloatArray:
+    """The cos Θ at uniformly spaced probabilities of the scattering-angle distribution.
+
+    The CDF is integrated on a grid fine enough for the forward peak (Θ log-spaced from 1e-6 rad);
+    sampling ``np.interp(ξ (K − 1), arange(K), table)`` draws Θ from p(Θ) to the table's
+    resolution (the largest step in probability is 1/(K − 1)).
+    """
+    theta = np.concatenate([[0.0], np.geomspace(1e-6, math.pi, 200_000)])
+    c = np.cos(theta)
+    # The forward peak is steep: evaluate β from the formulas rather than from the table.
+    dens = pm.beta_exact(c) * np.sin(theta)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(theta))])
+    cdf /= cdf[-1]
+    prob = np.linspace(0.0, 1.0, size)
+    th = np.interp(prob, cdf, theta)
+    return np.cos(th)

@@ -1,0 +1,149 @@
+"""The light-field table (sensors.polarimeter.rt.table) and the renderer that follows it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sensors.polarimeter import stokes as st
+from sensors.polarimeter import surface as sf
+from sensors.polarimeter import water as wa
+from sensors.polarimeter.rt import reference as rf
+from sensors.polarimeter.rt import table as tb
+
+N = tb.TABLE_INDEX
+
+
+def test_shipped_tables_cover_every_jerlov_type_with_small_errors():
+    shipped = tb._shipped()
+    for name in wa.JERLOV_TYPES:
+        w = wa.jerlov_water(name)
+        t = shipped[tb.WaterKey.of(w)]
+        n_t = len(t.theta_edges_deg) - 1
+        assert t.sun.shape == (len(tb.SUN_ZENITH_AIR_DEG), len(tb.TABLE_PLANES), n_t, t.n_phi, 3)
+        assert t.sky.shape == (len(tb.TABLE_PLANES), n_t, 3)
+        assert np.all(np.isfinite(t.sun)) and np.all(t.sun[..., 0] >= 0)
+        assert t.photons == tb.SHIPPED_PHOTONS
+        # E_d falls with depth (where any history got there: not c z = 20 of clear ocean,
+        # e^-20 of the surface light); the table's water is the type's.
+        for ed in t.e_down_sun:
+            reached = ed[1:][ed[1:] > 0]
+            assert np.all(np.diff(reached) < 0) and reached.size >= 15, name
+        assert t.key.c_per_m == pytest.approx(w.c_per_m)
+        if w.b_per_m / w.c_per_m > 0.5:  # the scattering types: multiple scattering matters
+            rel = t.sun_se[:, 7:15].astype(float) / np.maximum(t.sun[:, 7:15, ..., 0], 1e-30)
+            assert np.median(rel) < 0.05, name
+
+
+def test_the_frame_reproduces_the_nodes_and_varies_continuously():
+    t = tb.table_for(tb.WaterKey.of(wa.jerlov_water("3C")))
+    i, k = 2, 10  # sun 30° from the zenith in air, c z = 3
+    th = math.radians(float(t.sun_zenith_water_deg[i]))
+    f = t.frame(th, float(t.planes[k]), 2.0, 0.5)
+    sun, sky = t._smooth  # the rings at the zenith and nadir reduced to a smooth field's terms
+    np.testing.assert_array_equal(sun[:, :, 1:-1], t.sun[:, :, 1:-1])
+    expect = 2.0 * sun[i, k] + 0.5 * sky[k][:, None, :]
+    n_in = f.inside.shape[0] - 2
+    np.testing.assert_allclose(f.inside[1:-1, 1:-1], expect[:n_in], rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(f.outside[1:-1, 1:-1], expect[n_in:], rtol=1e-5, atol=1e-9)
+    # The mirrored padding columns flip U only.
+    np.testing.assert_allclose(f.inside[:, 0, :2], f.inside[:, 1, :2])
+    np.testing.assert_allclose(f.inside[:, 0, 2], -f.inside[:, 1, 2])
+    # Continuity in sun zenith and depth, and the asymptotic extrapolation below the table.
+    g = t.frame(th + 1e-7, float(t.planes[k]) + 1e-7, 2.0, 0.5)
+    np.testing.assert_allclose(g.inside, f.inside, rtol=1e-4, atol=1e-9)
+    deep = [t.frame(th, tau, 1.0, 0.0).inside[1:-1, 1:-1, 0].sum() for tau in (20.0, 25.0, 30.0)]
+    assert deep[0] > deep[1] > deep[2] > 0
+    r1, r2 = deep[1] / deep[0], deep[2] / deep[1]
+    assert r1 == pytest.approx(r2, rel=1e-6)  # one attenuation rate past the deepest plane
+
+
+def test_renderer_follows_the_reference_on_the_table_grid():
+    """The per-pixel renderer against the reference's bins: S0 5 %, DoP 0.02, AoP 1°.
+
+    Reference = the Monte Carlo multiply scattered light of the table (a bin mean) + the
+    once-scattered light averaged over the bin (validated against Monte Carlo in
+    test_rt_reference.py); renderer = both evaluated at the bin's centre, as for a pixel.
+    """
+    water = wa.jerlov_water("3C")
+    col = wa.WaterColumn(water, N)
+    t = col.table
+    grid = rf.Grid(planes=tb.TABLE_PLANES)
+    th_c, ph_c = (np.radians(a) for a in grid.centers_deg())
+    s0_err, dop_err, aop_err = [], [], []
+    for i, k in ((1, 5), (3, 9), (5, 13)):  # (sun 15°, c z 0.5), (45°, 2), (70°, 7)
+        za = math.radians(tb.SUN_ZENITH_AIR_DEG[i])
+        tw = math.radians(float(t.sun_zenith_water_deg[i]))
+        s = np.array([math.sin(tw), 0.0, math.cos(tw)])
+        q = rf.beam_polarization(za, N)
+        z = tb.TABLE_PLANES[k] / water.c_per_m
+        state = col.state(z, s, 1.0, q, 1.0 / s[2], 0.0)  # unit plane irradiance of the beam
+        single = col.state(z, s, 1.0, q, 1.0 / s[2], 0.0, multiple=False)
+        for ti, th in enumerate(th_c[:-3]):  # not the three bins around the nadir
+            for pj, ph in enumerate(ph_c):
+                v = np.array(
+                    [math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)]
+                )
+                if v @ s > math.cos(math.radians(8.0)):  # the forward peak: rough cells, exact
+                    continue
+                sub, wgt = _bin(grid, ti, pj)
+                ref = (col.single_scattering(sub, single) * wgt[:, None]).sum(0) / wgt.sum()
+                ref = ref + t.sun[i, k, ti, pj]
+                got = col.scattered(v[None], state)[0]
+                s0_err.append(abs(got[0] / ref[0] - 1.0))
+                (a_g,), (d_g,) = st.to_aop_dop(got[None])
+                (a_r,), (d_r,) = st.to_aop_dop(ref[None])
+                dop_err.append(abs(d_g - d_r))
+                if d_r > 0.05:
+                    aop_err.append(abs(math.degrees(np.angle(np.exp(2j * (a_g - a_r))) / 2)))
+    assert np.percentile(s0_err, 95) < 0.05 and np.median(s0_err) < 0.02
+    assert np.percentile(dop_err, 95) < 0.02
+    assert np.percentile(aop_err, 95) < 1.0
+
+
+def _bin(grid: rf.Grid, ti: int, pj: int, n: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    te = np.radians(grid.theta_edges_deg)
+    tt = np.linspace(te[ti], te[ti + 1], n + 1)
+    pp = np.linspace(pj * math.pi / grid.n_phi, (pj + 1) * math.pi / grid.n_phi, n + 1)
+    a, b = np.meshgrid(0.5 * (tt[1:] + tt[:-1]), 0.5 * (pp[1:] + pp[:-1]))
+    v = np.stack([np.sin(a) * np.cos(b), np.sin(a) * np.sin(b), np.cos(a)], -1).reshape(-1, 3)
+    return v, (np.abs(np.cos(a)) * np.sin(a)).ravel()
+
+
+def test_a_water_without_a_shipped_table_is_computed_once_and_cached(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("AUV_TWIN_CACHE", str(tmp_path))
+    monkeypatch.setattr(tb, "FIRST_USE_PHOTONS", 2_000)
+    tb.table_for.cache_clear()
+    water = wa.jerlov_water("1C", turbidity=2.0)  # no shipped table for a turbid 1C
+    key = tb.WaterKey.of(water)
+    assert key not in tb._shipped()
+    t = tb.table_for(key)
+    assert "computing the radiative-transfer table" in capsys.readouterr().err
+    files = list((tmp_path / "lightfield").glob("*.npz"))
+    assert len(files) == 1
+    tb.table_for.cache_clear()
+    again = tb.table_for(key)
+    assert capsys.readouterr().err == ""  # read back, not recomputed
+    # Stored as float16 per unit E_d: 3 digits, to ~1e-7 of E_d for the dimmest bins.
+    np.testing.assert_allclose(again.sun, t.sun, rtol=2e-3, atol=1e-7)
+    # A renderer with that water uses it (and finds the light of a more turbid sea).
+    col = wa.WaterColumn(water, N)
+    beam = sf.refract_sun_beam(np.array([0.0, 0.5, math.sqrt(0.75)]), N)
+    state = col.state(5.0, beam.look_dir, beam.irradiance_factor, beam.dop, 1.0, 0.2)
+    assert state.field is not None
+    assert np.all(np.isfinite(col.scattered(np.array([[0.0, 0.0, 1.0]]), state)))
+    tb.table_for.cache_clear()
+
+
+def test_an_unwritable_cache_costs_time_not_correctness(tmp_path, monkeypatch, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("AUV_TWIN_CACHE", str(blocker))
+    monkeypatch.setattr(tb, "FIRST_USE_PHOTONS", 1_000)
+    tb.table_for.cache_clear()
+    t = tb.table_for(tb.WaterKey.of(wa.jerlov_water("II", turbidity=0.5)))
+    assert np.all(np.isfinite(t.sun))
+    assert "could not cache the table" in capsys.readouterr().err
+    tb.table_for.cache_clear()
