@@ -142,8 +142,9 @@ def main() -> None:
         f"Camera `{preset}` (noisy, 700 µs), {args.frames} frames per cell, seed {args.seed}; sun "
         "elevation 20–70°, any azimuth; roll/pitch ±5° (hint = truth); errors of the level-frame "
         "solar vector in degrees: azimuth MAE / zenith MAE / zenith bias ± its 95 % interval "
-        "(mean signed, negative = towards the zenith); no-fix count. `LIG-water` is a diagnostic variant (normals on the "
-        f"in-water sphere), not the paper's method. Run time {elapsed:.0f} s.",
+        "(mean signed, negative = towards the zenith); no-fix count. `LIG-water` is a diagnostic "
+        "variant (normals on the in-water sphere), not the paper's method."
+        f" Run time {elapsed:.0f} s.",
         "",
         "| water | depth m | " + " | ".join(f"{n} az / zen / bias (nofix)" for n in names) + " |",
         "|---|---|" + "---|" * len(names),

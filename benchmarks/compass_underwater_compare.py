@@ -1,4 +1,4 @@
-"""Before/after table: LIG and POL underwater errors, phenomenological light field vs radiative transfer.
+"""Before/after: LIG and POL under water, phenomenological light field vs radiative transfer.
 
     python benchmarks/compass_underwater_compare.py
 

@@ -356,8 +356,10 @@ class WaterColumn:
         return self._table
 
     def volume_scattering(self, cos_psi: ArrayLike) -> FloatArray:
-        """β(Θ) = b_w p_w(Θ) + b_p p_FF(Θ) (m⁻¹ sr⁻¹) as the renderer uses it (table, linear in
-        sin(Θ/2))."""
+        """β(Θ) = b_w p_w(Θ) + b_p p_FF(Θ) (m⁻¹ sr⁻¹) as the renderer uses it.
+
+        From the table, linear in sin(Θ/2), as the per-pixel kernel reads it.
+        """
         c = np.asarray(cos_psi)
         dt = np.result_type(c, np.float32)
         u = np.sqrt(np.maximum(0.5 - 0.5 * c.astype(np.float64), 0.0))
@@ -494,14 +496,14 @@ class WaterColumn:
         h = math.hypot(float(s[0]), float(s[1]))
         cphi, sphi = (float(s[0]) / h, float(s[1]) / h) if h > 1e-12 else (1.0, 0.0)
         empty = column_kernel.empty_grid()
-        empty_t = np.array([0.0, 1.0])
+        empty_t = np.array([1.0, 0.0])
         return (
             do_single, state.tau_c, w.c_per_m, float(s[0]), float(s[1]), float(s[2]),
             state.e_sun_normal, state.beam_q, float(r0[0]), float(r0[1]), float(r0[2]),
             self._luts, f is not None,
-            f.inside if f is not None else empty, f.inside_theta if f is not None else empty_t,
-            f.outside if f is not None else empty, f.outside_theta if f is not None else empty_t,
-            math.acos(state.window_cos), f.theta_c if f is not None else 1.0,
+            f.inside if f is not None else empty, f.inside_cos if f is not None else empty_t,
+            f.outside if f is not None else empty, f.outside_cos if f is not None else empty_t,
+            state.window_cos, math.cos(f.theta_c) if f is not None else 0.5,
             f.dphi if f is not None else 1.0, cphi, sphi,
         )  # fmt: skip
 

@@ -23,7 +23,8 @@ held and E_d decays at the deepest planes' rate — the asymptotic regime), and 
 Tables for the Jerlov types (:data:`sensors.polarimeter.water.JERLOV_500NM`, turbidity 1) ship in
 ``sensors/polarimeter/data/lightfield_jerlov_500nm.npz``, built by
 ``python benchmarks/build_lightfield_table.py``; any other water is computed on first use (about a
-minute on one core for most waters) and cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
+minute on one core for most waters) and cached under ``$AUV_TWIN_CACHE`` (default
+``~/.cache/auv-twin``).
 """
 
 from __future__ import annotations
@@ -116,6 +117,16 @@ class FrameField:
     outside_theta: FloatArray
     theta_c: float
     dphi: float
+
+    @functools.cached_property
+    def inside_cos(self) -> FloatArray:
+        """The cos of :attr:`inside_theta` (descending), what the per-pixel kernel searches."""
+        return np.cos(self.inside_theta)
+
+    @functools.cached_property
+    def outside_cos(self) -> FloatArray:
+        """The cos of :attr:`outside_theta` (descending)."""
+        return np.cos(self.outside_theta)
 
 
 @dataclass(frozen=True)
@@ -215,11 +226,13 @@ class LightFieldTable:
 
     @functools.cached_property
     def _smooth(self) -> tuple[FloatArray, FloatArray]:
-        """The sun and sky fields with the rings next to the zenith and the nadir reduced to what
-        a smooth field has there: I = mean + a cos φ gradient, (Q, U) the m = 2 pattern of a
-        fixed polarization in the meridian frame (I, Q even in φ, U odd). Those rings' bins have
-        the smallest solid angles, hence the largest Monte Carlo noise, and converge on one
-        point, where per-bin noise would make the field jump."""
+        """The sun and sky fields, the rings next to the zenith and the nadir made smooth.
+
+        Those rings are reduced to what a smooth field has there: I = mean + a cos φ gradient,
+        (Q, U) the m = 2 pattern of a fixed polarization in the meridian frame (I, Q even in φ,
+        U odd). Their bins have the smallest solid angles, hence the largest Monte Carlo noise,
+        and converge on one point, where per-bin noise would make the field jump.
+        """
         sun = self.sun.copy()
         for r in (0, -1):
             sun[..., r, :, :] = _pole_ring(sun[..., r, :, :], self.n_phi)
@@ -303,7 +316,7 @@ class LightFieldTable:
 
 
 def _per(field: FloatArray, e_down: FloatArray) -> FloatArray:
-    """field / E_d as float16 (0 where no history reached the plane)."""
+    """The field / E_d as float16 (0 where no history reached the plane)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(e_down > 0, field / np.where(e_down > 0, e_down, 1.0), 0.0).astype(
             np.float16

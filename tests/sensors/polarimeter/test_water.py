@@ -147,7 +147,7 @@ def test_single_scattering_matches_the_line_of_sight_integral():
 
 
 def _single_reference(col, state, v):
-    """R(−χ₂) M(Θ) R(χ₁) (1, q_b, 0) from the stokes module's rotations (independent of the kernel)."""
+    """R(−χ₂) M(Θ) R(χ₁) (1, q_b, 0) from the stokes module's rotations (not the kernel's)."""
     s = state.sun_look
     d0, d = -s, -v
     ct = np.clip(v @ s, -1.0, 1.0)
