@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from sensors.polarimeter.rt.kernel import lut_at
+
 
 @njit(cache=True, inline="always")
 def _row(cz, grid_c):
@@ -86,7 +88,6 @@ def scatter_pixels(
     sun's azimuth: the table's φ = 0).
     """
     m = x.shape[0]
-    k_lut = luts.shape[1] - 1
     mu_s = max(sz, 1e-3)
     a1 = cz / mu_s
     for i in range(m):
@@ -126,15 +127,10 @@ def scatter_pixels(
                    + (r0x * e1y - r0y * e1x) * sz)  # fmt: skip
             q1 = (c1 * c1 - s1 * s1) * beam_q
             u1 = -2.0 * c1 * s1 * beam_q
-            uu = math.sqrt(max(0.5 - 0.5 * ct, 0.0)) * k_lut
-            j = int(uu)
-            if j >= k_lut:
-                j = k_lut - 1
-            f = uu - j
-            beta = luts[0, j] * (1.0 - f) + luts[0, j + 1] * f
-            m12 = luts[1, j] * (1.0 - f) + luts[1, j + 1] * f
-            m22 = luts[2, j] * (1.0 - f) + luts[2, j + 1] * f
-            m33 = luts[3, j] * (1.0 - f) + luts[3, j + 1] * f
+            beta = lut_at(luts, 0, ct)
+            m12 = lut_at(luts, 1, ct)
+            m22 = lut_at(luts, 2, ct)
+            m33 = lut_at(luts, 3, ct)
             oi = 1.0 + m12 * q1
             oq = m12 + m22 * q1
             ou = m33 * u1

@@ -44,6 +44,22 @@ ROULETTE_WEIGHT = 1e-4
 ROULETTE_SURVIVAL = 0.1
 
 
+@njit(cache=True, inline="always")
+def lut_at(table, row, cos_theta):
+    """Row ``row`` of a phase-matrix table uniform in u = sin(Θ/2), linearly interpolated at Θ.
+
+    Shared by this kernel and :mod:`sensors.polarimeter.column_kernel`, so that the reference and
+    the renderer read the phase matrix the same way.
+    """
+    k = table.shape[1] - 1
+    uu = math.sqrt(max(0.5 - 0.5 * cos_theta, 0.0)) * k
+    j = int(uu)
+    if j >= k:
+        j = k - 1
+    f = uu - j
+    return table[row, j] * (1.0 - f) + table[row, j + 1] * f
+
+
 @njit(cache=True)
 def _seed(seed: int) -> None:
     np.random.seed(seed)
@@ -58,8 +74,12 @@ def _rotate(q: float, u: float, chi: float) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _score(rad, irr, k, cls, dx, dy, dz, rx, ry, rz, si, sq, su, scattered, edges_cos, n_phi):
-    """Score one crossing of plane k by a photon (d, r, S): irradiance; radiance if scattered."""
+def _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi):
+    """Score one crossing of plane k by a photon ph = (d, r, I, Q, U).
+
+    Irradiance always; radiance (in the look direction's bin) only if the photon has scattered.
+    """
+    dx, dy, dz, rx, ry, rz, si, sq, su = ph
     if dz < 0.0:
         irr[k, 0] += si
     else:
@@ -103,6 +123,78 @@ def _score(rad, irr, k, cls, dx, dy, dz, rx, ry, rz, si, sq, su, scattered, edge
     rad[cls, k, lo, pj, 0] += si
     rad[cls, k, lo, pj, 1] += q
     rad[cls, k, lo, pj, 2] += u
+
+
+@njit(cache=True)
+def _score_segment(rad, irr, planes, tau_a, tau_b, cls, ph, scattered, edges_cos, n_phi):
+    """Score every plane k >= 1 a flight from τ_a to τ_b crosses (plane 0 is the surface's)."""
+    n = planes.shape[0]
+    if tau_b > tau_a:
+        for k in range(1, n):
+            if tau_a < planes[k] <= tau_b:
+                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi)
+    else:
+        for k in range(n - 1, 0, -1):
+            if tau_b <= planes[k] < tau_a:
+                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi)
+
+
+@njit(cache=True)
+def _reflect_from_below(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water):
+    """Fresnel reflection at the flat surface of light coming up (d_z > 0).
+
+    Returns the reflected Stokes (I, Q, U, V), its new d_z and reference (the p-axis s × d' of the
+    plane of incidence, s ∝ ẑ × d), and the escaped flux. Born & Wolf amplitudes; beyond the
+    critical angle cos θ_t is imaginary and the reflection total, with its retardance
+    (U' = Re(r_p r_s*) U − Im(r_p r_s*) V, V' = Im U + Re V).
+    """
+    h = math.sqrt(max(dx * dx + dy * dy, 0.0))
+    if h < 1e-12:
+        sx, sy = 0.0, 1.0
+    else:
+        sx, sy = -dy / h, dx / h
+    px = sy * dz
+    py = -sx * dz
+    pz = sx * dy - sy * dx
+    # Stokes into the (p, s) basis: χ from r to p about d.
+    cx = ry * pz - rz * py
+    cy = rz * px - rx * pz
+    cz = rx * py - ry * px
+    chi = math.atan2(cx * dx + cy * dy + cz * dz, rx * px + ry * py + rz * pz)
+    sq, su = _rotate(sq, su, chi)
+    cos_i = dz
+    sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
+    if sin_t2 < 1.0:
+        cos_t = complex(math.sqrt(1.0 - sin_t2), 0.0)
+    else:
+        cos_t = complex(0.0, math.sqrt(sin_t2 - 1.0))
+    rs = (n_water * cos_i - cos_t) / (n_water * cos_i + cos_t)
+    rp = (cos_i - n_water * cos_t) / (cos_i + n_water * cos_t)
+    r_s = abs(rs) ** 2
+    r_p = abs(rp) ** 2
+    zc = rp * rs.conjugate()
+    ni = 0.5 * (r_p + r_s) * si + 0.5 * (r_p - r_s) * sq
+    nq = 0.5 * (r_p - r_s) * si + 0.5 * (r_p + r_s) * sq
+    nu = zc.real * su - zc.imag * sv
+    nv = zc.imag * su + zc.real * sv
+    ndz = -dz
+    return ni, nq, nu, nv, ndz, sy * ndz, -sx * ndz, sx * dy - sy * dx, si - ni
+
+
+@njit(cache=True)
+def _roulette(si, sq, su, sv, start, totals):
+    """Russian roulette below ROULETTE_WEIGHT of the start weight.
+
+    Unbiased: the survivors gain what the others lose, in expectation; both are tallied.
+    """
+    if si >= ROULETTE_WEIGHT * start:
+        return True, si, sq, su, sv
+    if np.random.random() < ROULETTE_SURVIVAL:
+        f = 1.0 / ROULETTE_SURVIVAL
+        totals[3] += si * (f - 1.0)
+        return True, si * f, sq * f, su * f, sv * f
+    totals[2] += si
+    return False, si, sq, su, sv
 
 
 @njit(cache=True)
@@ -159,7 +251,6 @@ def transport(
     _seed(seed)
     n_planes = planes.shape[0]
     k_icdf = icdf_cos.shape[0] - 1
-    m_tab = mu_table.shape[1] - 1
     l_sky = sky_cdf_mu.shape[0] - 1
     for _ in range(n_photons):
         # ---- start just below the surface -----------------------------------------------------
@@ -206,183 +297,30 @@ def transport(
             s = -math.log(1.0 - np.random.random())
             tau_new = tau - dz * s
             cls = 0 if (n_scat == 1 and not reflected) else 1
+            ph = (dx, dy, dz, rx, ry, rz, si, sq, su)
             if tau_new <= 0.0:
-                # Up to the surface: score planes above, then the surface itself.
-                for k in range(n_planes - 1, 0, -1):
-                    if planes[k] < tau:
-                        _score(
-                            rad,
-                            irr,
-                            k,
-                            cls,
-                            dx,
-                            dy,
-                            dz,
-                            rx,
-                            ry,
-                            rz,
-                            si,
-                            sq,
-                            su,
-                            n_scat > 0,
-                            edges_cos,
-                            n_phi,
-                        )
-                _score(
-                    rad,
-                    irr,
-                    0,
-                    cls,
-                    dx,
-                    dy,
-                    dz,
-                    rx,
-                    ry,
-                    rz,
-                    si,
-                    sq,
-                    su,
-                    n_scat > 0,
-                    edges_cos,
-                    n_phi,
+                # Up to the surface: score the planes above, then the surface plane itself.
+                _score_segment(rad, irr, planes, tau, 0.0, cls, ph, n_scat > 0, edges_cos, n_phi)
+                _score(rad, irr, 0, cls, ph, n_scat > 0, edges_cos, n_phi)
+                si, sq, su, sv, dz, rx, ry, rz, escaped = _reflect_from_below(
+                    dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water
                 )
-                # Fresnel reflection from below in the plane of incidence: p = s × d, s ∝ ẑ × d.
-                h = math.sqrt(max(dx * dx + dy * dy, 0.0))
-                if h < 1e-12:
-                    sx, sy = 0.0, 1.0
-                else:
-                    sx, sy = -dy / h, dx / h
-                px = sy * dz
-                py = -sx * dz
-                pz = sx * dy - sy * dx
-                # Stokes into the (p, s) basis: χ from r to p about d.
-                cx = ry * pz - rz * py
-                cy = rz * px - rx * pz
-                cz = rx * py - ry * px
-                chi = math.atan2(cx * dx + cy * dy + cz * dz, rx * px + ry * py + rz * pz)
-                sq, su = _rotate(sq, su, chi)
-                cos_i = dz
-                sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
-                if sin_t2 < 1.0:
-                    cos_t = complex(math.sqrt(1.0 - sin_t2), 0.0)
-                else:
-                    cos_t = complex(0.0, math.sqrt(sin_t2 - 1.0))
-                n1 = n_water
-                rs = (n1 * cos_i - cos_t) / (n1 * cos_i + cos_t)
-                rp = (cos_i - n1 * cos_t) / (cos_i + n1 * cos_t)
-                r_s = abs(rs) ** 2
-                r_p = abs(rp) ** 2
-                zc = rp * rs.conjugate()
-                ni = 0.5 * (r_p + r_s) * si + 0.5 * (r_p - r_s) * sq
-                nq = 0.5 * (r_p - r_s) * si + 0.5 * (r_p + r_s) * sq
-                nu = zc.real * su - zc.imag * sv
-                nv = zc.imag * su + zc.real * sv
-                totals[0] += si - ni
-                si, sq, su, sv = ni, nq, nu, nv
-                dz = -dz
-                # The reflected p-axis: s × d'.
-                rx = sy * dz
-                ry = -sx * dz
-                rz = sx * dy - sy * dx
+                totals[0] += escaped
                 tau = 0.0
                 reflected = True
-                cls = 1
-                _score(
-                    rad,
-                    irr,
-                    0,
-                    cls,
-                    dx,
-                    dy,
-                    dz,
-                    rx,
-                    ry,
-                    rz,
-                    si,
-                    sq,
-                    su,
-                    n_scat > 0,
-                    edges_cos,
-                    n_phi,
-                )
-                if si < ROULETTE_WEIGHT * start:
-                    if np.random.random() < ROULETTE_SURVIVAL:
-                        totals[3] += si * (1.0 / ROULETTE_SURVIVAL - 1.0)
-                        f = 1.0 / ROULETTE_SURVIVAL
-                        si *= f
-                        sq *= f
-                        su *= f
-                        sv *= f
-                    else:
-                        totals[2] += si
-                        break
+                ph = (dx, dy, dz, rx, ry, rz, si, sq, su)
+                _score(rad, irr, 0, 1, ph, n_scat > 0, edges_cos, n_phi)
+                alive, si, sq, su, sv = _roulette(si, sq, su, sv, start, totals)
+                if not alive:
+                    break
                 continue
             if tau_new >= tau_bottom:
-                for k in range(1, n_planes):
-                    if planes[k] > tau:
-                        _score(
-                            rad,
-                            irr,
-                            k,
-                            cls,
-                            dx,
-                            dy,
-                            dz,
-                            rx,
-                            ry,
-                            rz,
-                            si,
-                            sq,
-                            su,
-                            n_scat > 0,
-                            edges_cos,
-                            n_phi,
-                        )
+                _score_segment(
+                    rad, irr, planes, tau, tau_bottom, cls, ph, n_scat > 0, edges_cos, n_phi
+                )
                 totals[1] += si
                 break
-            # Score the planes between τ and τ_new.
-            if tau_new > tau:
-                for k in range(1, n_planes):
-                    if tau < planes[k] <= tau_new:
-                        _score(
-                            rad,
-                            irr,
-                            k,
-                            cls,
-                            dx,
-                            dy,
-                            dz,
-                            rx,
-                            ry,
-                            rz,
-                            si,
-                            sq,
-                            su,
-                            n_scat > 0,
-                            edges_cos,
-                            n_phi,
-                        )
-            else:
-                for k in range(n_planes - 1, 0, -1):
-                    if tau_new <= planes[k] < tau:
-                        _score(
-                            rad,
-                            irr,
-                            k,
-                            cls,
-                            dx,
-                            dy,
-                            dz,
-                            rx,
-                            ry,
-                            rz,
-                            si,
-                            sq,
-                            su,
-                            n_scat > 0,
-                            edges_cos,
-                            n_phi,
-                        )
+            _score_segment(rad, irr, planes, tau, tau_new, cls, ph, n_scat > 0, edges_cos, n_phi)
             tau = tau_new
             # ---- collision: absorption (implicit capture) --------------------------------------
             layer = n_planes - 1
@@ -415,15 +353,10 @@ def transport(
             r1z = cph * rz + sph * ez
             sq, su = _rotate(sq, su, phi)
             # Mueller matrix in the scattering plane (d, r1).
-            uu = math.sqrt(max(0.5 - 0.5 * ctheta, 0.0)) * m_tab
-            ju = int(uu)
-            if ju >= m_tab:
-                ju = m_tab - 1
-            fu = uu - ju
-            m12 = mu_table[1, ju] * (1.0 - fu) + mu_table[1, ju + 1] * fu
-            m22 = mu_table[2, ju] * (1.0 - fu) + mu_table[2, ju + 1] * fu
-            m33 = mu_table[3, ju] * (1.0 - fu) + mu_table[3, ju + 1] * fu
-            m44 = mu_table[4, ju] * (1.0 - fu) + mu_table[4, ju + 1] * fu
+            m12 = lut_at(mu_table, 1, ctheta)
+            m22 = lut_at(mu_table, 2, ctheta)
+            m33 = lut_at(mu_table, 3, ctheta)
+            m44 = lut_at(mu_table, 4, ctheta)
             ni = si + m12 * sq
             nq = m12 * si + m22 * sq
             su = m33 * su
@@ -451,14 +384,6 @@ def transport(
             ry *= nr
             rz *= nr
             n_scat += 1
-            if si < ROULETTE_WEIGHT * start:
-                if np.random.random() < ROULETTE_SURVIVAL:
-                    totals[3] += si * (1.0 / ROULETTE_SURVIVAL - 1.0)
-                    f = 1.0 / ROULETTE_SURVIVAL
-                    si *= f
-                    sq *= f
-                    su *= f
-                    sv *= f
-                else:
-                    totals[2] += si
-                    break
+            alive, si, sq, su, sv = _roulette(si, sq, su, sv, start, totals)
+            if not alive:
+                break
