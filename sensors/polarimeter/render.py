@@ -823,7 +823,7 @@ class Polarimeter(Sensor):
         ang = (np.arccos(up) - edge) / cell
         rough = (ang > -_EDGE_BAND_IN_CELLS) & (ang < _EDGE_BAND_OUT_CELLS)
         if fc.state is not None:
-            rough |= self._sharp_scattering(fc.state, up, cell, tot_c[:, 0])
+            rough |= self._sharp_scattering(fc.state, up, cell)
         if fc.sun_look is not None:
             cos_sun = np.clip(world @ fc.sun_look, -1.0, 1.0)
             rough |= np.arccos(cos_sun) < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
@@ -874,7 +874,6 @@ class Polarimeter(Sensor):
         state: water_mod.ColumnState,
         up: NDArray[np.float64],
         cell: NDArray[np.float64],
-        s0: FloatArray,
     ) -> NDArray[np.bool_]:
         """Coarse points where the scattered light is too curved to interpolate over a cell.
 
@@ -885,7 +884,6 @@ class Polarimeter(Sensor):
         in the edge band.)
         """
         assert self._column is not None
-        del s0
         step = self._column.water.c_per_m * state.depth_m
         narrow = step / cell < _STEP_CELLS
         rough = np.zeros(up.shape, dtype=bool)

@@ -2,10 +2,11 @@
 
 Tolerances are what the twin's world model allows, not what the paper reports: the rendered
 in-water radiance is *not* a function of the scattering angle alone (sky gradation, Fresnel and
-path-length fall-off, the blurred window and the in-water scattering lobe are centred on the
-zenith or on the refracted sun), so LIG's elevation carries a bias of a few degrees even in clear
+path-length fall-off, and the multiply scattered light of the radiative-transfer field are
+centred on the zenith or on the refracted sun), so LIG's elevation carries a bias even in clear
 water, while its azimuth (heading) is protected by the solar-meridian symmetry. POL is nearly
-exact at 2 m and drifts towards the zenith with depth (the equivalent-incident-light model).
+exact at 2 m and its apparent sun drifts towards the zenith with depth (what transport gives:
+benchmarks/results/compass_underwater.md).
 """
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def test_tilted_heading_and_sun_side(ideal, name, az, roll, pitch, yaw):
 
 
 def test_pol_bias_grows_with_depth(ideal):
-    """The world's equivalent incident light pulls POL's sun towards the zenith with depth."""
+    """Multiply scattered light pulls POL's apparent sun towards the zenith with depth."""
     sun = _sun(120.0, 40.0)
     dz = []
     for depth in (2.0, 15.0):
