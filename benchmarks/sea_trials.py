@@ -20,6 +20,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from scipy import stats
+
 import scenarios
 from twin.app.run import run_scenario
 
@@ -74,7 +76,8 @@ def main() -> int:
     lines = [
         "# LIG paper sea trials in the twin (benchmarks/sea_trials.py)",
         "",
-        f"Seeds {args.seeds}; heading RMSE over the whole run, degrees (MAE in brackets); "
+        f"Seeds {args.seeds}; heading RMSE over the whole run, degrees, mean over the seeds ± its "
+        "95 % interval (MAE in brackets); "
         "roll/pitch RMSE; sun updates applied/rejected by the NIS gate. Run time "
         f"{time.perf_counter() - t0:.0f} s, {time.strftime('%Y-%m-%d')}.",
         "",
@@ -86,12 +89,22 @@ def main() -> int:
             sel = [r for r in rows if r["depth_m"] == d and r["setup"] == u]
 
             def cell(name: str, sel=sel) -> str:
-                rm = statistics.mean(r[name]["heading_rmse_deg"] for r in sel)
+                vals = [r[name]["heading_rmse_deg"] for r in sel]
+                rm = statistics.mean(vals)
+                # Student-t 95 % interval of the mean over the seeds.
+                ci = (
+                    float(stats.t.ppf(0.975, len(vals) - 1))
+                    * statistics.stdev(vals)
+                    / len(vals) ** 0.5
+                    if len(vals) > 1
+                    else None
+                )
                 mae = statistics.mean(r[name]["heading_mae_deg"] for r in sel)
                 rp = [
                     statistics.mean(r[name]["roll_pitch_rmse_deg"][i] for r in sel) for i in (0, 1)
                 ]
-                s = f"{rm:.2f} ({mae:.2f}); r/p {rp[0]:.2f}/{rp[1]:.2f}"
+                s = f"{rm:.2f}" + (f" ± {ci:.2f}" if ci is not None else "")
+                s += f" ({mae:.2f}); r/p {rp[0]:.2f}/{rp[1]:.2f}"
                 if sel[0][name]["sun_applied"] is not None:
                     ap_ = sum(r[name]["sun_applied"] for r in sel)
                     rj = sum(r[name]["sun_rejected"] for r in sel)

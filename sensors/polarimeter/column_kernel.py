@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.rt.kernel import lut_at
+from sensors.polarimeter.rt.kernel import lut_at, meridian
 
 
 @njit(cache=True, inline="always")
@@ -94,15 +94,7 @@ def scatter_pixels(
         vx = float(x[i])
         vy = float(y[i])
         vz = float(z[i])
-        # Meridian reference of d = −v: (ẑ − v_z v)/|…| (North at the poles).
-        h = 1.0 - vz * vz
-        if h > 1e-12:
-            inv = 1.0 / math.sqrt(h)
-            mx = -vz * vx * inv
-            my = -vz * vy * inv
-            mz = h * inv
-        else:
-            mx, my, mz = 0.0, 1.0, 0.0
+        mx, my, mz = meridian(-vx, -vy, -vz)  # of the light's direction d = −v
         si = 0.0
         sq = 0.0
         su = 0.0

@@ -60,6 +60,20 @@ def lut_at(table, row, cos_theta):
     return table[row, j] * (1.0 - f) + table[row, j + 1] * f
 
 
+@njit(cache=True, inline="always")
+def meridian(dx, dy, dz):
+    """The meridian reference of light travelling along d.
+
+    The unit vector ⟂ d in the vertical plane, towards +z; North at the poles (as
+    :func:`sensors.polarimeter.stokes.meridian_reference`).
+    """
+    h = 1.0 - dz * dz
+    if h > 1e-12:
+        inv = 1.0 / math.sqrt(h)
+        return -dz * dx * inv, -dz * dy * inv, h * inv
+    return 0.0, 1.0, 0.0
+
+
 @njit(cache=True)
 def _seed(seed: int) -> None:
     np.random.seed(seed)
@@ -101,15 +115,7 @@ def _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi):
     pj = int(abs(phi) / math.pi * n_phi)
     if pj >= n_phi:
         pj = n_phi - 1
-    # Meridian reference of d: the unit vector ⟂ d in the vertical plane, towards +z.
-    h = 1.0 - dz * dz
-    if h > 1e-12:
-        inv = 1.0 / math.sqrt(h)
-        mx = -dz * dx * inv
-        my = -dz * dy * inv
-        mz = h * inv
-    else:
-        mx, my, mz = 0.0, 1.0, 0.0
+    mx, my, mz = meridian(dx, dy, dz)
     # χ from r to the meridian about d, without trigonometry.
     c1 = rx * mx + ry * my + rz * mz
     s1 = (ry * mz - rz * my) * dx + (rz * mx - rx * mz) * dy + (rx * my - ry * mx) * dz
