@@ -156,12 +156,6 @@ class PhaseMatrix:
             out = out + self.b_particle_per_m * fournier_forand(c, FF_INDEX, self.ff_slope)
         return out
 
-    def index(self, cos_theta: ArrayLike) -> NDArray[np.intp]:
-        """Nearest table index of each cos Θ."""
-        c = np.asarray(cos_theta, dtype=np.float64)
-        u = np.sqrt(np.maximum(0.5 - 0.5 * c, 0.0))
-        return np.clip((u * (len(self.u) - 1) + 0.5).astype(np.intp), 0, len(self.u) - 1)
-
     def elements(self, cos_theta: ArrayLike) -> tuple[FloatArray, ...]:
         """(β, m12, m22, m33, m44) at each cos Θ, linearly interpolated in u."""
         c = np.asarray(cos_theta, dtype=np.float64)
