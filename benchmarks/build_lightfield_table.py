@@ -3,7 +3,8 @@
     python benchmarks/build_lightfield_table.py [--photons N] [--workers W] [--types I II ...]
 
 Writes ``sensors/polarimeter/data/lightfield_jerlov_500nm.npz`` (one table per type, at
-turbidity 1; see :mod:`sensors.polarimeter.rt.table`) and prints, per type, the wall time, the
+turbidity 1, with the scattered light of the default sky model; see
+:mod:`sensors.polarimeter.rt.table`) and prints, per type, the wall time, the
 standard error of the tabulated radiance and the diffuse attenuation K_d the reference gives next
 to Jerlov's. Deterministic: the same photon count gives the same file.
 """
@@ -12,18 +13,22 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 from sensors.polarimeter import water as wa
 from sensors.polarimeter.rt import table as tb
+from sensors.polarimeter.sky import SkySpec
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--photons", type=int, default=tb.SHIPPED_PHOTONS)
+    p.add_argument("--sky-photons", type=int, default=tb.SHIPPED_SKY_PHOTONS)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--types", nargs="*", default=list(wa.JERLOV_TYPES))
+    p.add_argument("--out", type=Path, default=tb.DATA_FILE, help="default: the shipped file")
     a = p.parse_args()
     arrays: dict[str, np.ndarray] = {}
     names = []
@@ -32,6 +37,10 @@ def main() -> None:
         w = wa.jerlov_water(name)
         t = tb.LightFieldTable.build(tb.WaterKey.of(w), a.photons, seed=i, workers=a.workers)
         arrays.update(t.arrays(prefix=f"{name}/"))
+        sky = tb.SkyTable.build(
+            t.key, tb.SkyKey.of(SkySpec()), a.sky_photons, seed=i, workers=a.workers
+        )
+        arrays.update(sky.arrays(prefix=f"{name}/{tb.SKY_PREFIX}"))
         names.append(name)
         rel = t.sun_se.astype(float) / np.maximum(t.sun[..., 0], 1e-30)
         k = 10  # c z = 3
@@ -41,11 +50,12 @@ def main() -> None:
         kd = -np.polyfit(z[sel], np.log(ed[sel]), 1)[0]
         print(
             f"{name:4s} {time.perf_counter() - t0:6.1f} s  median rel. SE at c z = 3: "
-            f"{np.median(rel[:, k]):.3f}  K_d(sun 30°) {kd:.4f} vs Jerlov {w.kd_per_m:.3f}",
+            f"{np.median(rel[:, k]):.3f}  K_d(sun 30°) {kd:.4f} vs Jerlov {w.kd_per_m:.3f}  "
+            f"sky T {sky.transmittance.min():.3f}–{sky.transmittance.max():.3f}",
             flush=True,
         )
-        np.savez_compressed(tb.DATA_FILE, names=np.array(names), **arrays)
-    print(f"wrote {tb.DATA_FILE} ({tb.DATA_FILE.stat().st_size / 1e6:.1f} MB)")
+        np.savez_compressed(a.out, names=np.array(names), **arrays)  # after each type: a crash keeps those done
+    print(f"wrote {a.out} ({a.out.stat().st_size / 1e6:.1f} MB)")
 
 
 if __name__ == "__main__":

@@ -214,9 +214,9 @@ def transport(
     n_water: float,
     icdf_cos,
     mu_table,
-    sky_cdf_mu,
-    sky_weight,
-    sky_q,
+    sky_cdf,
+    sky_s2_edges,
+    sky_qu,
     planes,
     tau_bottom: float,
     edges_cos,
@@ -231,8 +231,8 @@ def transport(
     Args:
         n_photons: Histories to run.
         seed: Seed of numba's generator for this call.
-        source: 0 = the refracted sun beam (every photon starts along it), 1 = a uniform sky
-            refracted by the surface (start directions from ``sky_cdf_mu``).
+        source: 0 = the refracted sun beam (every photon starts along it), 1 = a sky refracted
+            by the surface (start directions drawn from the sky grid ``sky_cdf``).
         sun_theta: In-water zenith angle of the refracted sun (source 0), radians.
         beam_q: Q/I of the beam relative to its meridian (Fresnel p-polarization, source 0).
         omega0: Single-scattering albedo b/c.
@@ -240,9 +240,12 @@ def transport(
         icdf_cos: (K,) cos Θ at uniform probabilities (:func:`scattering.inverse_cdf_cos`).
         mu_table: (5, M) β-table rows m12, m22, m33, m44 against u = sin(Θ/2) uniform in [0, 1]
             (row 0 unused).
-        sky_cdf_mu: (L,) in-water cos θ of the sky photons at uniform probabilities (source 1).
-        sky_weight: (L,) their weights (Fresnel transmittance / its mean).
-        sky_q: (L,) their Q/I relative to the meridian.
+        sky_cdf: (N + 1,) cumulative transmitted flux of the sky grid's cells, 0 … 1 (source 1);
+            cell c = i n_s + j is air zenith row i (edges ``sky_s2_edges`` in sin²θ_a) and
+            azimuth column j of n_s = N / (len(sky_s2_edges) − 1) over [0, 2π) from the sun's.
+        sky_s2_edges: (n_θ + 1,) the rows' edges in sin²θ_a (within a cell the start direction is
+            uniform in sin²θ_a and φ: cosine-weighted, as the flux through a plane is).
+        sky_qu: (N, 2) each cell's transmitted (Q/I, U/I), meridian reference.
         planes: (P,) optical depths of the scoring planes, ascending, planes[0] = 0 (just below
             the surface).
         tau_bottom: Optical depth below which photons are lost downwards (deep water).
@@ -257,7 +260,9 @@ def transport(
     _seed(seed)
     n_planes = planes.shape[0]
     k_icdf = icdf_cos.shape[0] - 1
-    l_sky = sky_cdf_mu.shape[0] - 1
+    n_cells = sky_cdf.shape[0] - 1
+    n_rows = sky_s2_edges.shape[0] - 1
+    n_cols = max(n_cells // max(n_rows, 1), 1)
     for _ in range(n_photons):
         # ---- start just below the surface -----------------------------------------------------
         if source == 0:
@@ -266,17 +271,29 @@ def transport(
             phi0 = 0.0
             w0 = 1.0
             q0 = beam_q
+            u0 = 0.0
         else:
-            x = np.random.random() * l_sky
-            j = int(x)
-            if j >= l_sky:
-                j = l_sky - 1
-            f = x - j
-            ct = sky_cdf_mu[j] * (1.0 - f) + sky_cdf_mu[j + 1] * f
-            st = math.sqrt(max(1.0 - ct * ct, 0.0))
-            phi0 = 2.0 * math.pi * np.random.random()
-            w0 = sky_weight[j] * (1.0 - f) + sky_weight[j + 1] * f
-            q0 = sky_q[j] * (1.0 - f) + sky_q[j + 1] * f
+            # The cell: the first whose cumulative flux exceeds a uniform draw (binary search).
+            x = np.random.random()
+            lo = 0
+            hi = n_cells
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if sky_cdf[mid] <= x:
+                    lo = mid
+                else:
+                    hi = mid
+            row = lo // n_cols
+            col = lo - row * n_cols
+            s2 = sky_s2_edges[row] + np.random.random() * (
+                sky_s2_edges[row + 1] - sky_s2_edges[row]
+            )
+            st = math.sqrt(max(s2, 0.0)) / n_water  # Snell: sin θ_w = sin θ_a / n
+            ct = math.sqrt(max(1.0 - st * st, 0.0))
+            phi0 = (col + np.random.random()) * (2.0 * math.pi / n_cols)
+            w0 = 1.0
+            q0 = sky_qu[lo, 0]
+            u0 = sky_qu[lo, 1]
         # Travelling down, away from the source at azimuth phi0.
         cp = math.cos(phi0)
         sp = math.sin(phi0)
@@ -293,7 +310,7 @@ def transport(
         irr[0, 0] += w0  # the source's own crossing of the surface plane
         si = w0
         sq = w0 * q0
-        su = 0.0
+        su = w0 * u0
         sv = 0.0
         tau = 0.0
         n_scat = 0

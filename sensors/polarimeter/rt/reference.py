@@ -1,8 +1,9 @@
 """The polarized radiative-transfer reference: Stokes radiance over in-water directions at depth.
 
 ``solve(water, source=...)`` runs the forward Monte Carlo of :mod:`sensors.polarimeter.rt.kernel`
-for one water body and one source — the refracted sun beam at an in-water zenith angle, or a
-uniform unpolarized sky — and returns a :class:`LightField`: the Stokes radiance (I, Q, U) of the
+for one water body and one source — the refracted sun beam at an in-water zenith angle, or the
+sky's light through the surface (the sky model's radiance and polarization for that sun, or a
+uniform unpolarized sky) — and returns a :class:`LightField`: the Stokes radiance (I, Q, U) of the
 scattered light in look-direction bins (zenith θ of the look direction v, azimuth relative to the
 sun folded onto [0, π]; the field is mirror-symmetric about the sun's vertical plane) on a set of
 depth planes, split into the once-scattered light and the rest, with its Monte Carlo standard
@@ -30,6 +31,7 @@ at one wavelength, and the result is for that wavelength.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -38,6 +40,7 @@ from numpy.typing import NDArray
 
 from sensors.polarimeter import scattering
 from sensors.polarimeter.rt import kernel
+from sensors.polarimeter.sky import SkySpec, sky_radiance
 from sensors.polarimeter.surface import N_AIR, fresnel_elements
 
 FloatArray = NDArray[np.floating]
@@ -113,7 +116,10 @@ class LightField:
     Attributes:
         grid: Where it was scored.
         source: "sun" or "sky".
-        sun_zenith_water_deg: In-water zenith of the refracted sun (NaN for the sky).
+        sun_zenith_water_deg: In-water zenith of the refracted sun (for the sky: of the sun the
+            sky model was evaluated for).
+        sky_transmittance: The flat sea's diffuse transmittance for the sky source (``source``
+            "sky"; for "sun", that of a uniform unpolarized sky).
         single: (P, T, n_phi, 3) once-scattered, never-reflected Stokes radiance per bin.
         multiple: (P, T, n_phi, 3) all other scattered light (a surface reflection included).
         single_se, multiple_se: Their standard errors (batch means).
@@ -132,6 +138,7 @@ class LightField:
     grid: Grid
     source: str
     sun_zenith_water_deg: float
+    sky_transmittance: float
     single: FloatArray
     multiple: FloatArray
     single_se: FloatArray
@@ -173,29 +180,77 @@ def beam_polarization(sun_zenith_air_rad: float, n_water: float) -> float:
     return float(e.m01) / m00 if m00 > 0 else 0.0
 
 
-def sky_source_tables(
-    n_water: float, size: int = 2049
-) -> tuple[FloatArray, FloatArray, FloatArray, float]:
-    """A uniform unpolarized sky's photons below a flat surface.
+@dataclass(frozen=True)
+class SkySource:
+    """A sky's light just below a flat surface, as the kernel draws its photons (source 1).
 
-    The transmitted flux per air direction is L T(θ_a) cos θ_a dΩ_a; the start directions are
-    drawn cosine-weighted in air (so uniform in sin²θ_a) and weighted by T/T̄.
+    The sky above is gridded in air zenith (rows uniform in sin²θ_a, so that a cell's share of
+    the flux through a plane is its radiance times its area in sin²θ_a: cosine weighting) and in
+    azimuth from the sun's (full circle: the sky's polarization is odd under the mirror). Each
+    cell's Stokes is the sky model's at its centre, through the Fresnel transmission Mueller
+    matrix of the flat surface (whose plane of incidence is the meridian plane, so the meridian
+    reference is the p-axis on both sides).
 
-    Returns:
-        (in-water cos θ at uniform probabilities, weight, Q/I, T̄ = the flat sea's diffuse
-        transmittance for a uniform sky).
+    Attributes:
+        cdf: (N + 1,) cumulative transmitted flux over the cells, from 0 to 1.
+        s2_edges: (n_θ + 1,) row edges in sin²θ_a.
+        qu: (N, 2) transmitted (Q/I, U/I) per cell, meridian reference.
+        transmittance: Transmitted / incident downwelling plane irradiance (the flat sea's
+            diffuse transmittance for this sky).
     """
-    prob = np.linspace(0.0, 1.0, size)
-    sin_a = np.sqrt(prob)
-    cos_a = np.sqrt(np.maximum(1.0 - prob, 0.0))
+
+    cdf: FloatArray
+    s2_edges: FloatArray
+    qu: FloatArray
+    transmittance: float
+
+
+def sky_source(
+    sky: SkySpec | None,
+    sun_zenith_air_deg: float,
+    n_water: float,
+    n_theta: int = 64,
+    n_phi: int = 72,
+) -> SkySource:
+    """The sky model's light below a flat surface (``sky=None``: a uniform unpolarized sky).
+
+    The solar disc is not part of it (the sun is source 0). Sun in the x–z plane at azimuth 0.
+    """
+    s2_edges = np.linspace(0.0, 1.0, n_theta + 1)
+    s2 = 0.5 * (s2_edges[1:] + s2_edges[:-1])
+    phi = (np.arange(n_phi) + 0.5) * (2.0 * math.pi / n_phi)
+    sin_a, cos_a = np.sqrt(s2), np.sqrt(1.0 - s2)
+    dirs = np.stack(
+        [
+            sin_a[:, None] * np.cos(phi)[None, :],
+            sin_a[:, None] * np.sin(phi)[None, :],
+            np.broadcast_to(cos_a[:, None], (n_theta, n_phi)),
+        ],
+        axis=-1,
+    )
+    if sky is None:
+        st = np.zeros((n_theta, n_phi, 3))
+        st[..., 0] = 1.0
+    else:
+        zs = math.radians(sun_zenith_air_deg)
+        sun = np.array([math.sin(zs), 0.0, math.cos(zs)])
+        no_disc = dataclasses.replace(sky, sun_relative_radiance=0.0)
+        st = np.asarray(sky_radiance(dirs, sun, no_disc).stokes, dtype=np.float64)
     e = fresnel_elements(cos_a, N_AIR, n_water, "flux")
-    t = np.asarray(e.m00, dtype=float)
-    q = np.divide(np.asarray(e.m01, dtype=float), t, out=np.zeros_like(t), where=t > 0)
-    # ∫ T d(sin²θ_a) by the trapezoid rule on the uniform grid.
-    t_mean = float(np.trapezoid(t, prob))
-    sin_w = sin_a / n_water
-    cos_w = np.sqrt(1.0 - sin_w * sin_w)
-    return cos_w, t / t_mean, q, t_mean
+    m00, m01, m22 = (np.asarray(x, dtype=float)[:, None] for x in (e.m00, e.m01, e.m22))
+    i_t = m00 * st[..., 0] + m01 * st[..., 1]
+    q_t = m01 * st[..., 0] + m00 * st[..., 1]
+    u_t = m22 * st[..., 2]
+    # Equal cells in sin²θ_a and φ: a cell's plane flux is proportional to its radiance.
+    total_in = float(np.sum(st[..., 0]))
+    total_t = float(np.sum(i_t))
+    if not (total_in > 0 and total_t > 0):
+        raise ValueError("the sky sends no light into the water")
+    cdf = np.concatenate([[0.0], np.cumsum(i_t.ravel()) / total_t])
+    cdf[-1] = 1.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        qu = np.stack([np.where(i_t > 0, q_t / i_t, 0.0), np.where(i_t > 0, u_t / i_t, 0.0)], -1)
+    return SkySource(cdf, s2_edges, np.ascontiguousarray(qu.reshape(-1, 2)), total_t / total_in)
 
 
 def solve(
@@ -206,6 +261,7 @@ def solve(
     *,
     source: str = "sun",
     sun_zenith_air_deg: float = 30.0,
+    sky: SkySpec | None = None,
     n_water: float = 1.34,
     grid: Grid | None = None,
     photons: int = 200_000,
@@ -220,8 +276,11 @@ def solve(
         b_molecular_per_m: Molecular scattering b_w.
         b_particle_per_m: Particle scattering b_p.
         particle_backscatter_ratio: b_bp/b_p (sets the Fournier–Forand slope).
-        source: "sun" (the refracted beam of a sun at ``sun_zenith_air_deg``) or "sky".
+        source: "sun" (the refracted beam of a sun at ``sun_zenith_air_deg``) or "sky" (the
+            sky's light through the surface, the solar disc excluded).
         sun_zenith_air_deg: The sun's zenith angle in air, [0, 90).
+        sky: The sky model for ``source="sky"`` (radiance distribution and polarization for
+            the sun at ``sun_zenith_air_deg``); None: a uniform unpolarized sky.
         n_water: Water index.
         grid: Scoring planes and nodes (default :class:`Grid`).
         photons: Histories in all (split over ``batches``).
@@ -256,7 +315,7 @@ def solve(
     edges_cos = np.cos(np.radians(np.asarray(g.theta_edges_deg, dtype=np.float64)))
     edges_cos[0], edges_cos[-1] = 1.0, -1.0
     n_t, n_p = len(g.theta_edges_deg) - 1, g.n_phi
-    sky_mu, sky_w, sky_q, _ = sky_source_tables(n_water)
+    sky_src = sky_source(sky if source == "sky" else None, sun_zenith_air_deg, n_water)
     if source == "sun":
         theta_w = math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
         beam_q = beam_polarization(math.radians(sun_zenith_air_deg), n_water)
@@ -274,7 +333,8 @@ def solve(
         irr = np.zeros((n_pl, 2))
         kernel.transport(
             nb, int(sd), 0 if source == "sun" else 1, theta_w, beam_q, omega0, n_water,
-            icdf, mu_table, sky_mu, sky_w, sky_q, planes, bottom, edges_cos, n_p,
+            icdf, mu_table, sky_src.cdf, sky_src.s2_edges, sky_src.qu, planes, bottom, edges_cos,
+            n_p,
             rad, irr, absorbed, totals,
         )  # fmt: skip
         rads.append(rad / nb)
@@ -293,7 +353,12 @@ def solve(
     return LightField(
         grid=g,
         source=source,
-        sun_zenith_water_deg=math.degrees(theta_w) if source == "sun" else math.nan,
+        sun_zenith_water_deg=math.degrees(
+            theta_w
+            if source == "sun"
+            else math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
+        ),
+        sky_transmittance=sky_src.transmittance,
         single=rm[0],
         multiple=rm[1],
         single_se=rse[0],

@@ -8,11 +8,19 @@ single-scattering albedo b/c follow from them) the table holds, from
   direct beam and the closed-form single scattering the renderer computes itself), per unit
   downwelling plane irradiance of the beam just below the surface, at in-water sun zeniths
   ``sun_zenith_water_deg`` × planes × look-direction bins;
-* ``sky``: all the scattered light of a uniform unpolarized sky (per unit plane irradiance below the
-  surface; azimuthally symmetric, so (planes, look zenith) only): the renderer's direct sky light is
-  exact, its scattered part comes from here;
+* ``sky_uniform``: all the scattered light of a uniform unpolarized sky (per unit plane irradiance
+  below the surface; azimuthally symmetric, so (planes, look zenith) only), for a night sky;
 * the downwelling irradiances at the planes (for depth interpolation) and the standard error of
-  the sun field's radiance.
+  the sun field's radiance;
+
+and, per sky model (:class:`SkyTable`, keyed by what shapes the sky: CIE type, polarization model,
+DoP maximum, Berry's δ), all the scattered light of the **sky model's own sky** — its radiance
+distribution and its polarization for the sun at each node, through the flat surface's Fresnel
+matrix — per unit sky plane irradiance below the surface, with the flat sea's diffuse
+transmittance for that sky. The renderer's direct sky light is exact; its scattered part comes
+from here. (Replacing the sky by a uniform unpolarized one of the same irradiance, as this table
+did before, dilutes the window's polarization: at 2 m in Jerlov II the scattered sky light inside
+the window has a flux-weighted DoP of 0.22 from the Rayleigh sky, 0.015 from the uniform one.)
 
 Per frame, :meth:`LightFieldTable.frame` interpolates to the frame's sun zenith (linear) and depth
 (linear in the field normalised by E_d, E_d itself log-linear; past the deepest plane the shape is
@@ -20,11 +28,12 @@ held and E_d decays at the deepest planes' rate — the asymptotic regime), and 
 :class:`FrameField` the per-pixel kernel samples bilinearly, never across Snell's window edge
 (the upwelling light's total internal reflection makes a step there).
 
-Tables for the Jerlov types (:data:`sensors.polarimeter.water.JERLOV_500NM`, turbidity 1) ship in
+Tables for the Jerlov types (:data:`sensors.polarimeter.water.JERLOV_500NM`, turbidity 1) and
+the default sky (:class:`sensors.polarimeter.sky.SkySpec`) ship in
 ``sensors/polarimeter/data/lightfield_jerlov_500nm.npz``, built by
-``python benchmarks/build_lightfield_table.py``; any other water is computed on first use (about a
-minute on one core for most waters) and cached under ``$AUV_TWIN_CACHE`` (default
-``~/.cache/auv-twin``).
+``python benchmarks/build_lightfield_table.py``; any other water, or another sky, is computed on
+first use (a minute or two on one core for most waters; a sky alone, a fraction of that) and
+cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 """
 
 from __future__ import annotations
@@ -42,6 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.polarimeter.rt import reference
+from sensors.polarimeter.sky import SkySpec
 
 FloatArray = NDArray[np.floating]
 
@@ -55,8 +65,16 @@ TABLE_PLANES: tuple[float, ...] = (
 TABLE_INDEX = 1.34
 #: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
 SHIPPED_PHOTONS = 1_500_000
+#: Histories per sky node for the shipped tables (the scattered sky light is smooth and a
+#: minority of the light; half the sun's histories give it a few % per bin at c z ≈ 3–9).
+SHIPPED_SKY_PHOTONS = 750_000
 #: Histories per source for tables computed on first use.
 FIRST_USE_PHOTONS = 200_000
+#: Histories per sky node for sky tables computed on first use.
+FIRST_USE_SKY_PHOTONS = 100_000
+
+#: Bumped whenever the transport changes what a table holds, so that stale caches are not read.
+MODEL_VERSION = 2
 
 DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "lightfield_jerlov_500nm.npz"
 
@@ -85,7 +103,7 @@ class WaterKey:
         text = (
             f"{self.a_per_m:.9g},{self.b_molecular_per_m:.9g},{self.b_particle_per_m:.9g},"
             f"{self.particle_backscatter_ratio:.9g},{TABLE_INDEX},{SUN_ZENITH_AIR_DEG},"
-            f"{TABLE_PLANES}"
+            f"{TABLE_PLANES},{MODEL_VERSION}"
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -93,6 +111,140 @@ class WaterKey:
     def c_per_m(self) -> float:
         """Beam attenuation c = a + b."""
         return self.a_per_m + self.b_molecular_per_m + self.b_particle_per_m
+
+
+@dataclass(frozen=True, slots=True)
+class SkyKey:
+    """What shapes a sky's light in the water (its scale cancels: tables are per irradiance)."""
+
+    cie_type: int = 12
+    polarization: str = "rayleigh"
+    dop_max: float = 0.75
+    berry_delta_rad: float = round(math.radians(30.0), 9)
+
+    @classmethod
+    def of(cls, sky: SkySpec) -> SkyKey:
+        """From a :class:`sensors.polarimeter.sky.SkySpec`."""
+        return cls(
+            int(sky.cie_type),
+            str(sky.polarization),
+            round(float(sky.dop_max), 9),
+            round(float(sky.berry_delta_rad), 9),
+        )
+
+    def spec(self) -> SkySpec:
+        """A :class:`SkySpec` with this shape (unit zenith radiance, no disc)."""
+        return SkySpec(
+            cie_type=self.cie_type,
+            polarization=self.polarization,  # type: ignore[arg-type]
+            dop_max=self.dop_max,
+            berry_delta_rad=self.berry_delta_rad,
+            zenith_radiance=1.0,
+            sun_relative_radiance=0.0,
+        )
+
+    def digest(self, water: WaterKey) -> str:
+        """A short stable name for the cache (this sky over that water)."""
+        text = (
+            f"{water.digest()},{self.cie_type},{self.polarization},{self.dop_max:.9g},"
+            f"{self.berry_delta_rad:.9g}"
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class SkyTable:
+    """The scattered light of one sky model over one water, per sun node (module docstring).
+
+    Attributes:
+        water: The water.
+        sky: The sky's shape.
+        field: (S, P, T, n_phi, 3) all scattered sky light (single and multiple), per unit
+            downwelling sky plane irradiance just below the surface.
+        e_down: (S, P) the sky light's downwelling irradiance at the planes (direct included).
+        transmittance: (S,) the flat sea's diffuse transmittance for this sky.
+        photons: Histories per node.
+    """
+
+    water: WaterKey
+    sky: SkyKey
+    field: FloatArray
+    e_down: FloatArray
+    transmittance: FloatArray
+    photons: int
+
+    @classmethod
+    def build(
+        cls,
+        water: WaterKey,
+        sky: SkyKey,
+        photons: int = FIRST_USE_SKY_PHOTONS,
+        seed: int = 0,
+        workers: int = 1,
+    ) -> SkyTable:
+        """Run the reference with the sky source at every sun node."""
+        grid = reference.Grid(planes=TABLE_PLANES)
+        seeds = np.random.SeedSequence([seed, 1]).spawn(len(SUN_ZENITH_AIR_DEG))
+        args = [
+            (water, "sky", z, grid, photons, int(s.generate_state(1)[0]), sky)
+            for z, s in zip(SUN_ZENITH_AIR_DEG, seeds, strict=True)
+        ]
+        fields = _run(args, workers)
+        return cls(
+            water=water,
+            sky=sky,
+            field=np.stack([f.total for f in fields]).astype(np.float32),
+            e_down=np.stack([f.e_down for f in fields]),
+            transmittance=np.array([f.sky_transmittance for f in fields]),
+            photons=int(photons),
+        )
+
+    def arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
+        """The table as named arrays (for ``np.savez``)."""
+        k = self.sky
+        return {
+            f"{prefix}sky_key": np.array(
+                [
+                    k.cie_type,
+                    1.0 if k.polarization == "berry" else 0.0,
+                    k.dop_max,
+                    k.berry_delta_rad,
+                ]
+            ),
+            f"{prefix}field_per_ed": _per(self.field, self.e_down[:, :, None, None, None]),
+            f"{prefix}e_down": self.e_down,
+            f"{prefix}transmittance": self.transmittance,
+            f"{prefix}photons": np.array(self.photons),
+        }
+
+    @functools.cached_property
+    def smooth(self) -> FloatArray:
+        """:attr:`field` with the rings at the zenith and the nadir made smooth (``_smooth``)."""
+        return _smooth(self.field, self.field.shape[3])
+
+    @classmethod
+    def from_arrays(
+        cls, d: dict[str, np.ndarray] | np.lib.npyio.NpzFile, water: WaterKey, prefix: str = ""
+    ) -> SkyTable:
+        """Inverse of :meth:`arrays`."""
+        k = d[f"{prefix}sky_key"]
+        ed = np.asarray(d[f"{prefix}e_down"], dtype=float)
+        return cls(
+            water=water,
+            sky=SkyKey(
+                int(k[0]),
+                "berry" if k[1] > 0.5 else "rayleigh",
+                round(float(k[2]), 9),
+                round(float(k[3]), 9),
+            ),
+            field=np.nan_to_num(
+                np.asarray(d[f"{prefix}field_per_ed"], dtype=np.float32)
+                * ed[:, :, None, None, None]
+            ),
+            e_down=ed,
+            transmittance=np.asarray(d[f"{prefix}transmittance"], dtype=float),
+            photons=int(d[f"{prefix}photons"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -141,8 +293,8 @@ class LightFieldTable:
     sun: FloatArray
     sun_se: FloatArray
     e_down_sun: FloatArray
-    sky: FloatArray
-    e_down_sky: FloatArray
+    sky_uniform: FloatArray
+    e_down_sky_uniform: FloatArray
     photons: int
 
     # ---- build, save, load -------------------------------------------------------------------
@@ -150,19 +302,15 @@ class LightFieldTable:
     def build(
         cls, key: WaterKey, photons: int = FIRST_USE_PHOTONS, seed: int = 0, workers: int = 1
     ) -> LightFieldTable:
-        """Run the reference for every sun node and the sky (``workers`` processes)."""
+        """Run the reference for every sun node and the uniform sky (``workers`` processes)."""
         grid = reference.Grid(planes=TABLE_PLANES)
         jobs = [("sun", z) for z in SUN_ZENITH_AIR_DEG] + [("sky", 0.0)]
         seeds = np.random.SeedSequence(seed).spawn(len(jobs))
         args = [
-            (key, src, z, grid, photons, int(s.generate_state(1)[0]))
+            (key, src, z, grid, photons, int(s.generate_state(1)[0]), None)
             for (src, z), s in zip(jobs, seeds, strict=True)
         ]
-        if workers > 1:
-            with ProcessPoolExecutor(workers) as ex:
-                fields = list(ex.map(_solve_one, args))
-        else:
-            fields = [_solve_one(a) for a in args]
+        fields = _run(args, workers)
         suns, sky = fields[:-1], fields[-1]
         return cls(
             key=key,
@@ -173,8 +321,8 @@ class LightFieldTable:
             sun=np.stack([f.multiple for f in suns]).astype(np.float32),
             sun_se=np.stack([f.multiple_se[..., 0] for f in suns]).astype(np.float16),
             e_down_sun=np.stack([f.e_down for f in suns]),
-            sky=sky.total.mean(axis=2).astype(np.float32),  # uniform sky: average the azimuth
-            e_down_sky=np.asarray(sky.e_down),
+            sky_uniform=sky.total.mean(axis=2).astype(np.float32),  # azimuthally symmetric
+            e_down_sky_uniform=np.asarray(sky.e_down),
             photons=int(photons),
         )
 
@@ -194,8 +342,8 @@ class LightFieldTable:
             f"{prefix}sun_per_ed": _per(self.sun, self.e_down_sun[:, :, None, None, None]),
             f"{prefix}sun_se_per_ed": _per(self.sun_se, self.e_down_sun[:, :, None, None]),
             f"{prefix}e_down_sun": self.e_down_sun,
-            f"{prefix}sky": self.sky,
-            f"{prefix}e_down_sky": self.e_down_sky,
+            f"{prefix}sky": self.sky_uniform,
+            f"{prefix}e_down_sky": self.e_down_sky_uniform,
             f"{prefix}photons": np.array(self.photons),
         }
 
@@ -219,24 +367,15 @@ class LightFieldTable:
                 np.asarray(d[f"{prefix}sun_se_per_ed"], dtype=np.float32) * ed[:, :, None, None]
             ),
             e_down_sun=ed,
-            sky=np.asarray(d[f"{prefix}sky"], dtype=np.float32),
-            e_down_sky=np.asarray(d[f"{prefix}e_down_sky"], dtype=float),
+            sky_uniform=np.asarray(d[f"{prefix}sky"], dtype=np.float32),
+            e_down_sky_uniform=np.asarray(d[f"{prefix}e_down_sky"], dtype=float),
             photons=int(d[f"{prefix}photons"]),
         )
 
     @functools.cached_property
-    def _smooth(self) -> tuple[FloatArray, FloatArray]:
-        """The sun and sky fields, the rings next to the zenith and the nadir made smooth.
-
-        Those rings are reduced to what a smooth field has there: I = mean + a cos φ gradient,
-        (Q, U) the m = 2 pattern of a fixed polarization in the meridian frame (I, Q even in φ,
-        U odd). Their bins have the smallest solid angles, hence the largest Monte Carlo noise,
-        and converge on one point, where per-bin noise would make the field jump.
-        """
-        sun = self.sun.copy()
-        for r in (0, -1):
-            sun[..., r, :, :] = _pole_ring(sun[..., r, :, :], self.n_phi)
-        return sun, self.sky
+    def _smooth(self) -> FloatArray:
+        """The sun field, its rings at the zenith and the nadir made smooth (:func:`_smooth`)."""
+        return _smooth(self.sun, self.n_phi)
 
     # ---- per frame -----------------------------------------------------------------------------
     def frame(
@@ -246,6 +385,7 @@ class LightFieldTable:
         e_sun_plane: float,
         e_sky_plane: float,
         n_water: float = TABLE_INDEX,
+        sky: SkyTable | None = None,
     ) -> FrameField:
         """The scattered-light grid of one frame.
 
@@ -256,21 +396,40 @@ class LightFieldTable:
             e_sky_plane: Downwelling plane irradiance of the sky just below the surface.
             n_water: This frame's index: the sun zenith is mapped to the table's water by the
                 ratio of the critical angles, so that a grazing sun stays grazing.
+            sky: The sky model's table (:func:`sky_table_for`); None: the uniform unpolarized
+                sky (a night sky).
         """
+        i, f = self._node(sun_zenith_water_rad, n_water)
+        sun_t = self._smooth
+        sun = (1.0 - f) * self._at_depth(sun_t[i], self.e_down_sun[i], tau_c) + f * (
+            self._at_depth(sun_t[i + 1], self.e_down_sun[i + 1], tau_c)
+        )
+        if sky is None:
+            sky_f = self._at_depth(self.sky_uniform, self.e_down_sky_uniform, tau_c)[:, None, :]
+        else:
+            sky_t = sky.smooth
+            sky_f = (1.0 - f) * self._at_depth(sky_t[i], sky.e_down[i], tau_c) + f * (
+                self._at_depth(sky_t[i + 1], sky.e_down[i + 1], tau_c)
+            )
+        g = e_sun_plane * sun + e_sky_plane * sky_f
+        g = g.astype(np.float32)
+        return self._pad(g)
+
+    def _node(self, sun_zenith_water_rad: float, n_water: float) -> tuple[int, float]:
+        """The sun node below this frame's sun and the interpolation weight of the next."""
         tc_t = math.asin(1.0 / TABLE_INDEX)
         tc = math.asin(1.0 / n_water)
         th = min(max(sun_zenith_water_rad, 0.0), tc) * tc_t / tc
         zn = np.radians(self.sun_zenith_water_deg)
         i = int(np.clip(np.searchsorted(zn, th) - 1, 0, len(zn) - 2))
-        f = float(np.clip((th - zn[i]) / (zn[i + 1] - zn[i]), 0.0, 1.0))
-        sun_t, sky_t = self._smooth
-        sun = (1.0 - f) * self._at_depth(sun_t[i], self.e_down_sun[i], tau_c) + f * (
-            self._at_depth(sun_t[i + 1], self.e_down_sun[i + 1], tau_c)
-        )
-        sky = self._at_depth(sky_t, self.e_down_sky, tau_c)
-        g = e_sun_plane * sun + e_sky_plane * sky[:, None, :]
-        g = g.astype(np.float32)
-        return self._pad(g)
+        return i, float(np.clip((th - zn[i]) / (zn[i + 1] - zn[i]), 0.0, 1.0))
+
+    def sky_transmittance(
+        self, sky: SkyTable, sun_zenith_water_rad: float, n_water: float = TABLE_INDEX
+    ) -> float:
+        """The flat sea's diffuse transmittance for this sky at this sun (node-interpolated)."""
+        i, f = self._node(sun_zenith_water_rad, n_water)
+        return float((1.0 - f) * sky.transmittance[i] + f * sky.transmittance[i + 1])
 
     def _at_depth(self, field: FloatArray, e_down: FloatArray, tau: float) -> FloatArray:
         # Planes no history reached (in weakly scattering water c z = 20 is e^-20 of the surface
@@ -352,8 +511,29 @@ def _pole(ring: FloatArray, phi: FloatArray) -> FloatArray:
     return out
 
 
+def _smooth(field: FloatArray, n_phi: int) -> FloatArray:
+    """A (S, P, T, n_phi, 3) field with the rings next to the zenith and the nadir made smooth.
+
+    Those rings are reduced to what a smooth field has there: I = mean + a cos φ gradient,
+    (Q, U) the m = 2 pattern of a fixed polarization in the meridian frame (I, Q even in φ,
+    U odd). Their bins have the smallest solid angles, hence the largest Monte Carlo noise,
+    and converge on one point, where per-bin noise would make the field jump.
+    """
+    out = field.copy()
+    for r in (0, -1):
+        out[..., r, :, :] = _pole_ring(out[..., r, :, :], n_phi)
+    return out
+
+
+def _run(args: list[tuple], workers: int) -> list[reference.LightField]:
+    if workers > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            return list(ex.map(_solve_one, args))
+    return [_solve_one(a) for a in args]
+
+
 def _solve_one(args: tuple) -> reference.LightField:
-    key, src, z, grid, photons, seed = args
+    key, src, z, grid, photons, seed, sky = args
     return reference.solve(
         key.a_per_m,
         key.b_molecular_per_m,
@@ -361,6 +541,7 @@ def _solve_one(args: tuple) -> reference.LightField:
         key.particle_backscatter_ratio,
         source=src,
         sun_zenith_air_deg=z,
+        sky=None if sky is None else sky.spec(),
         n_water=TABLE_INDEX,
         grid=grid,
         photons=photons,
@@ -376,17 +557,68 @@ def cache_dir() -> Path:
     )
 
 
+#: The prefix of a water's default-sky table in the shipped file.
+SKY_PREFIX = "sky_model/"
+
+
 @functools.lru_cache(maxsize=1)
-def _shipped() -> dict[WaterKey, LightFieldTable]:
+def _shipped_all() -> tuple[
+    dict[WaterKey, LightFieldTable], dict[tuple[WaterKey, SkyKey], SkyTable]
+]:
     if not DATA_FILE.exists():
-        return {}
-    out = {}
+        return {}, {}
+    out, skies = {}, {}
     with np.load(DATA_FILE) as d:
         names = [str(n) for n in d["names"]]
         for name in names:
             t = LightFieldTable.from_arrays(d, prefix=f"{name}/")
             out[t.key] = t
-    return out
+            if f"{name}/{SKY_PREFIX}sky_key" in d:
+                st = SkyTable.from_arrays(d, t.key, prefix=f"{name}/{SKY_PREFIX}")
+                skies[(t.key, st.sky)] = st
+    return out, skies
+
+
+def _shipped() -> dict[WaterKey, LightFieldTable]:
+    return _shipped_all()[0]
+
+
+def _shipped_skies() -> dict[tuple[WaterKey, SkyKey], SkyTable]:
+    return _shipped_all()[1]
+
+
+def _save(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write atomically; an unwritable cache costs time, not correctness."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez_compressed(tmp, **arrays)
+        tmp.replace(path)
+    except OSError as e:
+        print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
+
+
+@functools.lru_cache(maxsize=32)
+def sky_table_for(water: WaterKey, sky: SkyKey) -> SkyTable:
+    """The scattered light of a sky over a water: shipped, cached, or computed now (and cached)."""
+    shipped = _shipped_skies()
+    if (water, sky) in shipped:
+        return shipped[(water, sky)]
+    path = cache_dir() / f"sky-{sky.digest(water)}.npz"
+    if path.exists():
+        with np.load(path) as d:
+            return SkyTable.from_arrays(d, water)
+    print(
+        f"auv-twin: computing the scattered sky light for CIE sky {sky.cie_type} "
+        f"({sky.polarization}, DoP max {sky.dop_max:g}) over water a={water.a_per_m:g}, "
+        f"b_w={water.b_molecular_per_m:g}, b_p={water.b_particle_per_m:g} /m "
+        f"({len(SUN_ZENITH_AIR_DEG)} Monte Carlo runs of {FIRST_USE_SKY_PHOTONS} photons; "
+        f"cached in {path.parent})",
+        file=sys.stderr,
+    )
+    t = SkyTable.build(water, sky, FIRST_USE_SKY_PHOTONS, seed=0, workers=1)
+    _save(path, t.arrays())
+    return t
 
 
 @functools.lru_cache(maxsize=32)
@@ -407,11 +639,5 @@ def table_for(key: WaterKey) -> LightFieldTable:
         file=sys.stderr,
     )
     t = LightFieldTable.build(key, FIRST_USE_PHOTONS, seed=0, workers=1)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, **t.arrays())
-        tmp.replace(path)
-    except OSError as e:  # an unwritable cache costs time, not correctness
-        print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
+    _save(path, t.arrays())
     return t
