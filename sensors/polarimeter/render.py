@@ -480,7 +480,10 @@ class Polarimeter(Sensor):
         o = self.optics
         self.n_water = o.water_index
         self._column = water_mod.WaterColumn(
-            water_mod.jerlov_water(o.jerlov_type, o.turbidity), self.n_water
+            water_mod.jerlov_water(o.jerlov_type, o.turbidity),
+            self.n_water,
+            o.sky,
+            o.wind_speed_mps,
         )
         # Radiance → photons/s per pixel: the camera equation at the binned pixel pitch.
         pitch = self.camera.spec.pixel_pitch_um * self.camera.spec.binning
@@ -698,7 +701,13 @@ class Polarimeter(Sensor):
         e_sky_air = self._sky_irradiance(sun)
         assert self._column is not None
         state = self._column.state(
-            depth_m, beam.look_dir, beam.irradiance_factor, beam.dop, e_sun_air, e_sky_air
+            depth_m,
+            beam.look_dir,
+            beam.irradiance_factor,
+            beam.dop,
+            e_sun_air,
+            e_sky_air,
+            night=bool(getattr(sun, "is_night", sun_enu[2] < math.sin(NIGHT_ELEVATION_RAD))),
         )
         return _Frame(sun, True, state, beam.look_dir if beam.transmitted else None)
 

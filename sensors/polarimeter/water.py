@@ -46,8 +46,8 @@ The per-pixel work (2 and 3) is one compiled loop (:mod:`sensors.polarimeter.col
 Limits, honestly: one wavelength (the water's IOPs at 500 nm by default; see docs/polarimeter.md
 for what a single band costs); homogeneous, deep water (no bottom); a flat surface for the sun beam
 and for the scattered light (waves act on the direct sky light only, in the surface stage); the
-scattered sky light is that of a uniform sky of the same irradiance (the direct sky light keeps
-the sky model's distribution); the table's multiply scattered light is resolved to its bins
+scattered sky light is the sky model's own sky at the table's sun nodes (interpolated between
+them), through a flat surface; the table's multiply scattered light is resolved to its bins
 (3–4° in look zenith, 15° in azimuth; the sharp parts, the direct light and the single-scattered
 aureole, are closed form); Monte Carlo noise in the table (its standard error ships with it); no
 inelastic scattering.
@@ -78,6 +78,7 @@ from sensors.polarimeter.scattering import (  # noqa: F401  (re-exported: the ph
     fournier_forand,
     molecular_phase,
 )
+from sensors.polarimeter.sky import SkySpec
 from sensors.polarimeter.stokes import meridian_reference
 from sensors.polarimeter.surface import (
     CHUNK,
@@ -327,12 +328,22 @@ class WaterColumn:
 
     _LUT_SIZE = 8192
 
-    def __init__(self, water: WaterOptics, n: float):
+    def __init__(
+        self,
+        water: WaterOptics,
+        n: float,
+        sky: SkySpec | None = None,
+        wind_speed_mps: float = 0.0,
+    ):
         """Set up the column.
 
         Args:
             water: Optical properties (:func:`jerlov_water` or custom).
             n: Water index (for Snell's window, :func:`surface.water_index`).
+            sky: The sky model above (its shape sets the scattered sky light's distribution and
+                polarization; default :class:`SkySpec`).
+            wind_speed_mps: The sea's wind (the scattered light's tables are interpolated
+                between the Cox–Munk seas of :data:`rt.table.WIND_NODES_MPS`; 0 = flat).
         """
         if not (math.isfinite(n) and 1.0 < n < 2.0):
             raise ValueError(f"n must be a water refractive index in (1, 2), got {n!r}")
@@ -346,14 +357,26 @@ class WaterColumn:
         )
         pm = self.phase
         self._luts = np.ascontiguousarray(np.stack([pm.beta, pm.m12, pm.m22, pm.m33]))
-        self._table: rt_table.LightFieldTable | None = None
+        self.sky_key = rt_table.SkyKey.of(SkySpec() if sky is None else sky)
+        self.wind_speed_mps = float(wind_speed_mps)
+        # [(table key, weight)]: the wind nodes around this sea's wind.
+        self._nodes = [
+            (rt_table.WaterKey.of(water, node), wt)
+            for node, wt in rt_table.wind_nodes(wind_speed_mps)
+        ]
 
     @property
     def table(self) -> rt_table.LightFieldTable:
-        """The radiative-transfer table of this water (shipped, cached or computed on first use)."""
-        if self._table is None:
-            self._table = rt_table.table_for(rt_table.WaterKey.of(self.water))
-        return self._table
+        """The radiative-transfer table of this water at the nearest wind node at or below.
+
+        (Shipped, cached or computed on first use; :meth:`state` interpolates between nodes.)
+        """
+        return rt_table.table_for(self._nodes[0][0])
+
+    @property
+    def sky_table(self) -> rt_table.SkyTable:
+        """The scattered light of this sky over this water (as :attr:`table`)."""
+        return rt_table.sky_table_for(self._nodes[0][0], self.sky_key)
 
     def volume_scattering(self, cos_psi: ArrayLike) -> FloatArray:
         """β(Θ) = b_w p_w(Θ) + b_p p_FF(Θ) (m⁻¹ sr⁻¹) as the renderer uses it.
@@ -376,6 +399,7 @@ class WaterColumn:
         e_sky_air: float = 0.0,
         *,
         multiple: bool = True,
+        night: bool = False,
     ) -> ColumnState:
         """Gather the per-frame scalars.
 
@@ -390,6 +414,8 @@ class WaterColumn:
             e_sky_air: Diffuse horizontal irradiance of the sky in air (same units).
             multiple: Interpolate the radiative-transfer table for this frame (False: direct
                 and single scattering only, and no table is loaded).
+            night: The sky is the night's uniform unpolarized one (its scattered light from
+                the table's uniform sky, not the sky model's day sky).
 
         Returns:
             :class:`ColumnState`.
@@ -408,9 +434,22 @@ class WaterColumn:
         e_sky_plane = float(e_sky_air) * FLAT_SEA_DIFFUSE_TRANSMITTANCE
         field = None
         if multiple and w.b_per_m > 0 and (e_sun_plane > 0 or e_sky_plane > 0):
-            field = self.table.frame(
-                math.acos(min(mu_s, 1.0)), w.c_per_m * z, e_sun_plane, e_sky_plane, self.n
-            )
+            th = math.acos(min(mu_s, 1.0))
+            tables = [(rt_table.table_for(k), wt, k) for k, wt in self._nodes]
+            skies: list[rt_table.SkyTable | None] = [None] * len(tables)
+            if not night and e_sky_plane > 0:
+                skies = [rt_table.sky_table_for(k, self.sky_key) for _, _, k in tables]
+                # This sky's own transmittance (its light is not uniform over the sky).
+                e_sky_plane = float(e_sky_air) * sum(
+                    wt * t.sky_transmittance(sk, th, self.n)
+                    for (t, wt, _), sk in zip(tables, skies, strict=True)
+                    if sk is not None
+                )
+            parts = [
+                (wt, t.frame(th, w.c_per_m * z, e_sun_plane, e_sky_plane, self.n, sk))
+                for (t, wt, _), sk in zip(tables, skies, strict=True)
+            ]
+            field = parts[0][1] if len(parts) == 1 else rt_table.blend(parts)
         return ColumnState(
             depth_m=z,
             tau_c=w.c_per_m * z,

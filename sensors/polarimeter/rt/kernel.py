@@ -188,6 +188,134 @@ def _reflect_from_below(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water):
 
 
 @njit(cache=True)
+def _facet(dx, dy, dz, sigma):
+    """A facet of the Cox–Munk sea that light travelling along d meets (upward unit normal).
+
+    Slopes (z_x, z_y) are isotropic Gaussian, σ per component; the facet met is drawn with the
+    probability of its area projected on the light's path, p(z) (d·n)/(n_z d_z) =
+    p(z) (1 − (d_x z_x + d_y z_y)/d_z), by rejection (the weight is bounded by 1 + 4σ|d_h|/|d_z|:
+    the rare steeper facets are kept at that bound). Facets facing away are never met;
+    shadowing by other waves is not modelled (Cox–Munk Monte Carlo's usual approximation).
+    """
+    tz = max(abs(dz), 1e-3)
+    bound = 1.0 + 4.0 * sigma * math.sqrt(max(1.0 - dz * dz, 0.0)) / tz
+    zx = 0.0
+    zy = 0.0
+    for _ in range(100_000):
+        zx = sigma * np.random.standard_normal()
+        zy = sigma * np.random.standard_normal()
+        w = 1.0 - (dx * zx + dy * zy) / dz
+        if w > 0.0 and np.random.random() * bound < w:
+            break
+    nn = 1.0 / math.sqrt(1.0 + zx * zx + zy * zy)
+    return -zx * nn, -zy * nn, nn
+
+
+@njit(cache=True, inline="always")
+def _s_axis(dx, dy, dz, nx, ny, nz):
+    """The s-axis n × d / |n × d| of the plane of incidence (any ⟂ axis at normal incidence)."""
+    sx = ny * dz - nz * dy
+    sy = nz * dx - nx * dz
+    sz = nx * dy - ny * dx
+    h = math.sqrt(sx * sx + sy * sy + sz * sz)
+    if h < 1e-12:
+        # Normal incidence: every plane is one of incidence; take one ⟂ d.
+        if abs(dx) < 0.9:
+            sx, sy, sz = 0.0, -dz, dy
+        else:
+            sx, sy, sz = dz, 0.0, -dx
+        h = math.sqrt(sx * sx + sy * sy + sz * sz)
+    return sx / h, sy / h, sz / h
+
+
+@njit(cache=True, inline="always")
+def _to_p_basis(dx, dy, dz, rx, ry, rz, sq, su, sx, sy, sz):
+    """(Q, U) re-expressed relative to the p-axis s × d of the plane of incidence."""
+    px = sy * dz - sz * dy
+    py = sz * dx - sx * dz
+    pz = sx * dy - sy * dx
+    cx = ry * pz - rz * py
+    cy = rz * px - rx * pz
+    cz = rx * py - ry * px
+    chi = math.atan2(cx * dx + cy * dy + cz * dz, rx * px + ry * py + rz * pz)
+    return _rotate(sq, su, chi)
+
+
+@njit(cache=True)
+def _reflect_facet(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water, nx, ny, nz):
+    """Fresnel reflection from below at a facet with upward normal n (d·n > 0).
+
+    As :func:`_reflect_from_below`, in the facet's plane of incidence. Returns the reflected
+    Stokes (I, Q, U, V), its direction and reference (the p-axis s × d'), and the escaped flux.
+    """
+    sx, sy, sz = _s_axis(dx, dy, dz, nx, ny, nz)
+    sq, su = _to_p_basis(dx, dy, dz, rx, ry, rz, sq, su, sx, sy, sz)
+    cos_i = min(max(dx * nx + dy * ny + dz * nz, 0.0), 1.0)
+    sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
+    if sin_t2 < 1.0:
+        cos_t = complex(math.sqrt(1.0 - sin_t2), 0.0)
+    else:
+        cos_t = complex(0.0, math.sqrt(sin_t2 - 1.0))
+    rs = (n_water * cos_i - cos_t) / (n_water * cos_i + cos_t)
+    rp = (cos_i - n_water * cos_t) / (cos_i + n_water * cos_t)
+    r_s = abs(rs) ** 2
+    r_p = abs(rp) ** 2
+    zc = rp * rs.conjugate()
+    ni = 0.5 * (r_p + r_s) * si + 0.5 * (r_p - r_s) * sq
+    nq = 0.5 * (r_p - r_s) * si + 0.5 * (r_p + r_s) * sq
+    nu = zc.real * su - zc.imag * sv
+    nv = zc.imag * su + zc.real * sv
+    ex = dx - 2.0 * cos_i * nx
+    ey = dy - 2.0 * cos_i * ny
+    ez = dz - 2.0 * cos_i * nz
+    en = 1.0 / math.sqrt(ex * ex + ey * ey + ez * ez)
+    ex *= en
+    ey *= en
+    ez *= en
+    qx = sy * ez - sz * ey
+    qy = sz * ex - sx * ez
+    qz = sx * ey - sy * ex
+    return ni, nq, nu, nv, ex, ey, ez, qx, qy, qz, si - ni
+
+
+@njit(cache=True)
+def _enter_facet(ax, ay, az, rx, ry, rz, si, sq, su, n_water, nx, ny, nz):
+    """Fresnel transmission from air into the water at a facet with upward normal n (a·n < 0).
+
+    Light travelling along a with Stokes (I, Q, U) relative to r. Returns the transmitted Stokes
+    (I, Q, U, V; I is the transmitted flux, Born & Wolf power transmittances as in
+    :func:`sensors.polarimeter.surface.fresnel_elements`), its direction t (Snell) and
+    reference (the p-axis s × t).
+    """
+    sx, sy, sz = _s_axis(ax, ay, az, nx, ny, nz)
+    sq, su = _to_p_basis(ax, ay, az, rx, ry, rz, sq, su, sx, sy, sz)
+    ci = min(max(-(ax * nx + ay * ny + az * nz), 0.0), 1.0)
+    eta = 1.0 / n_water
+    ct = math.sqrt(max(1.0 - eta * eta * (1.0 - ci * ci), 0.0))
+    num = 4.0 * n_water * ci * ct
+    t_s = num / (ci + n_water * ct) ** 2
+    t_p = num / (n_water * ci + ct) ** 2
+    m00 = 0.5 * (t_p + t_s)
+    m01 = 0.5 * (t_p - t_s)
+    m22 = math.sqrt(t_s * t_p)
+    ni = m00 * si + m01 * sq
+    nq = m01 * si + m00 * sq
+    nu = m22 * su
+    k = eta * ci - ct
+    tx = eta * ax + k * nx
+    ty = eta * ay + k * ny
+    tz = eta * az + k * nz
+    tn = 1.0 / math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx *= tn
+    ty *= tn
+    tz *= tn
+    qx = sy * tz - sz * ty
+    qy = sz * tx - sx * tz
+    qz = sx * ty - sy * tx
+    return ni, nq, nu, 0.0, tx, ty, tz, qx, qy, qz
+
+
+@njit(cache=True)
 def _roulette(si, sq, su, sv, start, totals):
     """Russian roulette below ROULETTE_WEIGHT of the start weight.
 
@@ -212,11 +340,15 @@ def transport(
     beam_q: float,
     omega0: float,
     n_water: float,
+    slope_sigma: float,
+    sun_theta_air: float,
     icdf_cos,
     mu_table,
     sky_cdf,
     sky_s2_edges,
     sky_qu,
+    sky_cdf_air,
+    sky_qu_air,
     planes,
     tau_bottom: float,
     edges_cos,
@@ -225,6 +357,7 @@ def transport(
     irr,
     absorbed,
     totals,
+    source_flux,
 ):
     """Run ``n_photons`` histories, adding their scores into the tally arrays.
 
@@ -237,6 +370,11 @@ def transport(
         beam_q: Q/I of the beam relative to its meridian (Fresnel p-polarization, source 0).
         omega0: Single-scattering albedo b/c.
         n_water: Refractive index of the water (surface reflection from below).
+        slope_sigma: Cox–Munk slope σ per component (isotropic; 0 = a flat sea). On a rough sea
+            every photon enters through a facet drawn by :func:`_facet` (Fresnel at the facet,
+            its transmitted flux the photon's start weight) and meets a facet each time it
+            comes up to the surface (reflected there until it heads down).
+        sun_theta_air: The sun's zenith in air (source 0 on a rough sea).
         icdf_cos: (K,) cos Θ at uniform probabilities (:func:`scattering.inverse_cdf_cos`).
         mu_table: (5, M) β-table rows m12, m22, m33, m44 against u = sin(Θ/2) uniform in [0, 1]
             (row 0 unused).
@@ -246,6 +384,9 @@ def transport(
         sky_s2_edges: (n_θ + 1,) the rows' edges in sin²θ_a (within a cell the start direction is
             uniform in sin²θ_a and φ: cosine-weighted, as the flux through a plane is).
         sky_qu: (N, 2) each cell's transmitted (Q/I, U/I), meridian reference.
+        sky_cdf_air: (N + 1,) as ``sky_cdf`` for the light in air, before the surface (a rough
+            sea, where the transmission is the facet's).
+        sky_qu_air: (N, 2) the cells' (Q/I, U/I) in air.
         planes: (P,) optical depths of the scoring planes, ascending, planes[0] = 0 (just below
             the surface).
         tau_bottom: Optical depth below which photons are lost downwards (deep water).
@@ -256,6 +397,8 @@ def transport(
         absorbed: (P,) absorption in the layer below each plane.
         totals: (4,) escaped through the surface, lost at the bottom, lost to roulette, gained
             from roulette.
+        source_flux: (1,) Σ of the start weights (the downwelling irradiance the source puts
+            below the surface; the number of histories on a flat sea).
     """
     _seed(seed)
     n_planes = planes.shape[0]
@@ -307,11 +450,50 @@ def transport(
         if st < 1e-12:
             rx, ry, rz = 0.0, 1.0, 0.0
             # a vertical beam: Q is relative to North; unpolarized by symmetry anyway
-        irr[0, 0] += w0  # the source's own crossing of the surface plane
         si = w0
         sq = w0 * q0
         su = w0 * u0
         sv = 0.0
+        if slope_sigma > 0.0:
+            # A rough sea: the light in air, through the facet it meets (its direction and
+            # Stokes replace the flat sea's above).
+            if source == 0:
+                sa = math.sin(sun_theta_air)
+                ca = math.cos(sun_theta_air)
+                aphi = 0.0
+                aq = 0.0
+                au = 0.0
+            else:
+                x = np.random.random()
+                lo = 0
+                hi = n_cells
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    if sky_cdf_air[mid] <= x:
+                        lo = mid
+                    else:
+                        hi = mid
+                row = lo // n_cols
+                col = lo - row * n_cols
+                s2 = sky_s2_edges[row] + np.random.random() * (
+                    sky_s2_edges[row + 1] - sky_s2_edges[row]
+                )
+                sa = math.sqrt(min(max(s2, 0.0), 1.0))
+                ca = math.sqrt(max(1.0 - sa * sa, 0.0))
+                aphi = (col + np.random.random()) * (2.0 * math.pi / n_cols)
+                aq = sky_qu_air[lo, 0]
+                au = sky_qu_air[lo, 1]
+            ax = -sa * math.cos(aphi)
+            ay = -sa * math.sin(aphi)
+            az = -ca
+            mx, my, mz = meridian(ax, ay, az)
+            nx, ny, nz = _facet(ax, ay, az, slope_sigma)
+            si, sq, su, sv, dx, dy, dz, rx, ry, rz = _enter_facet(
+                ax, ay, az, mx, my, mz, 1.0, aq, au, n_water, nx, ny, nz
+            )
+            w0 = si
+        source_flux[0] += w0
+        irr[0, 0] += w0  # the source's own crossing of the surface plane
         tau = 0.0
         n_scat = 0
         reflected = False
@@ -325,10 +507,25 @@ def transport(
                 # Up to the surface: score the planes above, then the surface plane itself.
                 _score_segment(rad, irr, planes, tau, 0.0, cls, ph, n_scat > 0, edges_cos, n_phi)
                 _score(rad, irr, 0, cls, ph, n_scat > 0, edges_cos, n_phi)
-                si, sq, su, sv, dz, rx, ry, rz, escaped = _reflect_from_below(
-                    dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water
-                )
-                totals[0] += escaped
+                if slope_sigma > 0.0:
+                    # Facet after facet until the reflected light heads down (a few rays
+                    # reflected upwards by a steep facet meet the next wave).
+                    for _hit in range(10):
+                        nx, ny, nz = _facet(dx, dy, dz, slope_sigma)
+                        si, sq, su, sv, dx, dy, dz, rx, ry, rz, escaped = _reflect_facet(
+                            dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water, nx, ny, nz
+                        )
+                        totals[0] += escaped
+                        if dz < 0.0:
+                            break
+                    if dz >= 0.0:  # still heading up after 10 facets: count it as escaped
+                        totals[0] += si
+                        break
+                else:
+                    si, sq, su, sv, dz, rx, ry, rz, escaped = _reflect_from_below(
+                        dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water
+                    )
+                    totals[0] += escaped
                 tau = 0.0
                 reflected = True
                 ph = (dx, dy, dz, rx, ry, rz, si, sq, su)

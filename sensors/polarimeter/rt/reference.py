@@ -24,7 +24,9 @@ d = −v).
 Geometry and optics: plane-parallel homogeneous water, deep (photons below ``tau_bottom`` are lost;
 the default is the deepest plane + 20 optical depths, where the light is e^-(≳ 5) weaker than at the
 deepest plane even in the most scattering water), a flat surface with index n (Fresnel reflection
-of the upwelling light from below, total internal reflection beyond the critical angle), the
+of the upwelling light from below, total internal reflection beyond the critical angle) or a
+Cox–Munk sea (isotropic Gaussian slopes for a wind speed; the light enters through, and is
+reflected from below by, facets drawn with their projected areas; no wave shadowing), the
 phase matrix of :mod:`sensors.polarimeter.scattering`. One wavelength: the water's IOPs are given
 at one wavelength, and the result is for that wavelength.
 """
@@ -41,7 +43,7 @@ from numpy.typing import NDArray
 from sensors.polarimeter import scattering
 from sensors.polarimeter.rt import kernel
 from sensors.polarimeter.sky import SkySpec, sky_radiance
-from sensors.polarimeter.surface import N_AIR, fresnel_elements
+from sensors.polarimeter.surface import N_AIR, cox_munk_variances, fresnel_elements
 
 FloatArray = NDArray[np.floating]
 
@@ -133,6 +135,10 @@ class LightField:
         omega0: b/c.
         c_per_m: Beam attenuation of the water (to turn optical depths into metres).
         n_water: The surface's index.
+        wind_speed_mps: The Cox–Munk sea's wind (0: flat).
+        surface_transmittance: The share of the source's downwelling irradiance in air that
+            the surface lets in (flat: Fresnel, closed form; rough: the photons' mean facet
+            transmittance).
     """
 
     grid: Grid
@@ -155,6 +161,8 @@ class LightField:
     omega0: float
     c_per_m: float
     n_water: float
+    wind_speed_mps: float = 0.0
+    surface_transmittance: float = math.nan
 
     @property
     def total(self) -> FloatArray:
@@ -195,6 +203,8 @@ class SkySource:
         cdf: (N + 1,) cumulative transmitted flux over the cells, from 0 to 1.
         s2_edges: (n_θ + 1,) row edges in sin²θ_a.
         qu: (N, 2) transmitted (Q/I, U/I) per cell, meridian reference.
+        cdf_air: (N + 1,) cumulative incident flux over the cells (a rough sea's source).
+        qu_air: (N, 2) (Q/I, U/I) per cell in air.
         transmittance: Transmitted / incident downwelling plane irradiance (the flat sea's
             diffuse transmittance for this sky).
     """
@@ -202,6 +212,8 @@ class SkySource:
     cdf: FloatArray
     s2_edges: FloatArray
     qu: FloatArray
+    cdf_air: FloatArray
+    qu_air: FloatArray
     transmittance: float
 
 
@@ -246,11 +258,25 @@ def sky_source(
     total_t = float(np.sum(i_t))
     if not (total_in > 0 and total_t > 0):
         raise ValueError("the sky sends no light into the water")
-    cdf = np.concatenate([[0.0], np.cumsum(i_t.ravel()) / total_t])
-    cdf[-1] = 1.0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        qu = np.stack([np.where(i_t > 0, q_t / i_t, 0.0), np.where(i_t > 0, u_t / i_t, 0.0)], -1)
-    return SkySource(cdf, s2_edges, np.ascontiguousarray(qu.reshape(-1, 2)), total_t / total_in)
+
+    def cdf_of(x: FloatArray) -> FloatArray:
+        c = np.concatenate([[0.0], np.cumsum(x.ravel()) / float(np.sum(x))])
+        c[-1] = 1.0
+        return c
+
+    def ratios(i: FloatArray, q: FloatArray, u: FloatArray) -> FloatArray:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            qu = np.stack([np.where(i > 0, q / i, 0.0), np.where(i > 0, u / i, 0.0)], -1)
+        return np.ascontiguousarray(qu.reshape(-1, 2))
+
+    return SkySource(
+        cdf_of(i_t),
+        s2_edges,
+        ratios(i_t, q_t, u_t),
+        cdf_of(st[..., 0]),
+        ratios(st[..., 0], st[..., 1], st[..., 2]),
+        total_t / total_in,
+    )
 
 
 def solve(
@@ -262,6 +288,7 @@ def solve(
     source: str = "sun",
     sun_zenith_air_deg: float = 30.0,
     sky: SkySpec | None = None,
+    wind_speed_mps: float = 0.0,
     n_water: float = 1.34,
     grid: Grid | None = None,
     photons: int = 200_000,
@@ -281,6 +308,9 @@ def solve(
         sun_zenith_air_deg: The sun's zenith angle in air, [0, 90).
         sky: The sky model for ``source="sky"`` (radiance distribution and polarization for
             the sun at ``sun_zenith_air_deg``); None: a uniform unpolarized sky.
+        wind_speed_mps: Wind at 12.5 m for a Cox–Munk sea (clean surface, isotropic with the
+            total mean square slope σ_c² + σ_u² of
+            :func:`sensors.polarimeter.surface.cox_munk_variances`); 0 = a flat sea.
         n_water: Water index.
         grid: Scoring planes and nodes (default :class:`Grid`).
         photons: Histories in all (split over ``batches``).
@@ -321,27 +351,39 @@ def solve(
         beam_q = beam_polarization(math.radians(sun_zenith_air_deg), n_water)
     else:
         theta_w, beam_q = 0.0, 0.0
+    slope_sigma = math.sqrt(0.5 * sum(cox_munk_variances(wind_speed_mps)))
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     seeds = rng.integers(0, 2**31 - 1, size=batches)
     n_pl = len(planes)
     per_batch = [photons // batches + (1 if i < photons % batches else 0) for i in range(batches)]
-    rads, irrs = [], []
+    rads, irrs, fluxes = [], [], []
     absorbed = np.zeros(n_pl)
     totals = np.zeros(4)
     for nb, sd in zip(per_batch, seeds, strict=True):
         rad = np.zeros((2, n_pl, n_t, n_p, 3))
         irr = np.zeros((n_pl, 2))
+        flux = np.zeros(1)
         kernel.transport(
             nb, int(sd), 0 if source == "sun" else 1, theta_w, beam_q, omega0, n_water,
-            icdf, mu_table, sky_src.cdf, sky_src.s2_edges, sky_src.qu, planes, bottom, edges_cos,
-            n_p,
-            rad, irr, absorbed, totals,
+            slope_sigma, math.radians(sun_zenith_air_deg), icdf, mu_table, sky_src.cdf,
+            sky_src.s2_edges, sky_src.qu, sky_src.cdf_air, sky_src.qu_air, planes, bottom,
+            edges_cos, n_p, rad, irr, absorbed, totals, flux,
         )  # fmt: skip
-        rads.append(rad / nb)
-        irrs.append(irr / nb)
+        # Per unit downwelling irradiance below the surface (a flat sea: per history).
+        rads.append(rad / flux[0])
+        irrs.append(irr / flux[0])
+        fluxes.append(flux[0])
     rad_b = np.stack(rads) / g.solid_angle_mu()[None, None, None, :, :, None]
     irr_b = np.stack(irrs)
-    wts = np.asarray(per_batch, dtype=float) / photons
+    src_total = float(sum(fluxes))
+    if slope_sigma > 0.0:
+        t_surface = src_total / photons
+    elif source == "sun":
+        cz = math.cos(math.radians(sun_zenith_air_deg))
+        t_surface = float(fresnel_elements(cz, N_AIR, n_water, "flux").m00)
+    else:
+        t_surface = sky_src.transmittance
+    wts = np.asarray(fluxes, dtype=float) / src_total
 
     def mean_se(x: FloatArray) -> tuple[FloatArray, FloatArray]:
         m = np.tensordot(wts, x, axes=1)
@@ -367,10 +409,12 @@ def solve(
         e_up=im[:, 1],
         e_down_se=ise[:, 0],
         e_up_se=ise[:, 1],
-        absorbed=absorbed / photons,
-        escaped_up=float(totals[0] / photons),
-        lost_bottom=float(totals[1] / photons),
-        roulette_net=float((totals[2] - totals[3]) / photons),
+        absorbed=absorbed / src_total,
+        escaped_up=float(totals[0] / src_total),
+        lost_bottom=float(totals[1] / src_total),
+        roulette_net=float((totals[2] - totals[3]) / src_total),
+        wind_speed_mps=float(wind_speed_mps),
+        surface_transmittance=t_surface,
         photons=int(photons),
         omega0=omega0,
         c_per_m=c,

@@ -61,6 +61,10 @@ SUN_ZENITH_AIR_DEG: tuple[float, ...] = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0
 TABLE_PLANES: tuple[float, ...] = (
     0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0, 20.0,
 )  # fmt: skip
+#: Wind speeds (m/s at 12.5 m) of the surfaces the tables are computed for: 0 (flat, shipped)
+#: and Cox–Munk seas (computed on first use); the renderer interpolates linearly in between (the
+#: mean square slope is linear in the wind). Up to the surface stage's limit of 30 m/s.
+WIND_NODES_MPS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0)
 #: Water index the tables are computed for (500 nm, S = 35, T ≈ 15–20 °C: Quan & Fry 1995).
 TABLE_INDEX = 1.34
 #: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
@@ -81,21 +85,27 @@ DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "lightfield_jerlov_50
 
 @dataclass(frozen=True, slots=True)
 class WaterKey:
-    """What a table depends on (besides the fixed grid and index)."""
+    """What a table depends on (besides the fixed grid and index): the water and its surface.
+
+    ``wind_speed_mps`` is one of :data:`WIND_NODES_MPS` (the renderer interpolates between
+    them): the Cox–Munk sea of the reference (0 = flat).
+    """
 
     a_per_m: float
     b_molecular_per_m: float
     b_particle_per_m: float
     particle_backscatter_ratio: float
+    wind_speed_mps: float = 0.0
 
     @classmethod
-    def of(cls, water: object) -> WaterKey:
-        """From a :class:`sensors.polarimeter.water.WaterOptics`."""
+    def of(cls, water: object, wind_speed_mps: float = 0.0) -> WaterKey:
+        """From a :class:`sensors.polarimeter.water.WaterOptics` (and a wind node)."""
         return cls(
             round(float(water.a_per_m), 9),  # type: ignore[attr-defined]
             round(float(water.b_molecular_per_m), 9),  # type: ignore[attr-defined]
             round(float(water.b_particle_per_m), 9),  # type: ignore[attr-defined]
             round(float(water.particle_backscatter_ratio), 9),  # type: ignore[attr-defined]
+            round(float(wind_speed_mps), 9),
         )
 
     def digest(self) -> str:
@@ -103,7 +113,7 @@ class WaterKey:
         text = (
             f"{self.a_per_m:.9g},{self.b_molecular_per_m:.9g},{self.b_particle_per_m:.9g},"
             f"{self.particle_backscatter_ratio:.9g},{TABLE_INDEX},{SUN_ZENITH_AIR_DEG},"
-            f"{TABLE_PLANES},{MODEL_VERSION}"
+            f"{TABLE_PLANES},{MODEL_VERSION},{self.wind_speed_mps:.9g}"
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -331,7 +341,13 @@ class LightFieldTable:
         k = self.key
         return {
             f"{prefix}key": np.array(
-                [k.a_per_m, k.b_molecular_per_m, k.b_particle_per_m, k.particle_backscatter_ratio]
+                [
+                    k.a_per_m,
+                    k.b_molecular_per_m,
+                    k.b_particle_per_m,
+                    k.particle_backscatter_ratio,
+                    k.wind_speed_mps,
+                ]
             ),
             f"{prefix}sun_zenith_water_deg": self.sun_zenith_water_deg,
             f"{prefix}planes": self.planes,
@@ -474,6 +490,21 @@ class LightFieldTable:
         return FrameField(gin, tin, gout, tout, tc, math.pi / self.n_phi)
 
 
+def blend(parts: list[tuple[float, FrameField]]) -> FrameField:
+    """The weighted sum of frame fields on one grid (the renderer's wind interpolation)."""
+    first = parts[0][1]
+    inside = sum(w * f.inside for w, f in parts)
+    outside = sum(w * f.outside for w, f in parts)
+    return FrameField(
+        np.ascontiguousarray(inside, dtype=np.float32),
+        first.inside_theta,
+        np.ascontiguousarray(outside, dtype=np.float32),
+        first.outside_theta,
+        first.theta_c,
+        first.dphi,
+    )
+
+
 def _per(field: FloatArray, e_down: FloatArray) -> FloatArray:
     """The field / E_d as float16 (0 where no history reached the plane)."""
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -542,12 +573,26 @@ def _solve_one(args: tuple) -> reference.LightField:
         source=src,
         sun_zenith_air_deg=z,
         sky=None if sky is None else sky.spec(),
+        wind_speed_mps=key.wind_speed_mps,
         n_water=TABLE_INDEX,
         grid=grid,
         photons=photons,
         batches=10,
         seed=seed,
     )
+
+
+def wind_nodes(wind_speed_mps: float) -> list[tuple[float, float]]:
+    """The table winds around ``wind_speed_mps`` and their linear weights (zero weights dropped)."""
+    w = float(wind_speed_mps)
+    nodes = WIND_NODES_MPS
+    if not (math.isfinite(w) and nodes[0] <= w <= nodes[-1]):
+        raise ValueError(
+            f"wind_speed_mps must lie in [0, {nodes[-1]:g}] m/s, got {wind_speed_mps!r}"
+        )
+    i = int(np.clip(np.searchsorted(nodes, w, side="right") - 1, 0, len(nodes) - 2))
+    f = (w - nodes[i]) / (nodes[i + 1] - nodes[i])
+    return [(n, wt) for n, wt in ((nodes[i], 1.0 - f), (nodes[i + 1], f)) if wt > 0.0]
 
 
 def cache_dir() -> Path:
@@ -611,7 +656,8 @@ def sky_table_for(water: WaterKey, sky: SkyKey) -> SkyTable:
     print(
         f"auv-twin: computing the scattered sky light for CIE sky {sky.cie_type} "
         f"({sky.polarization}, DoP max {sky.dop_max:g}) over water a={water.a_per_m:g}, "
-        f"b_w={water.b_molecular_per_m:g}, b_p={water.b_particle_per_m:g} /m "
+        f"b_w={water.b_molecular_per_m:g}, b_p={water.b_particle_per_m:g} /m, "
+        f"wind {water.wind_speed_mps:g} m/s "
         f"({len(SUN_ZENITH_AIR_DEG)} Monte Carlo runs of {FIRST_USE_SKY_PHOTONS} photons; "
         f"cached in {path.parent})",
         file=sys.stderr,
@@ -633,7 +679,8 @@ def table_for(key: WaterKey) -> LightFieldTable:
             return LightFieldTable.from_arrays(d)
     print(
         f"auv-twin: computing the radiative-transfer table for water a={key.a_per_m:g}, "
-        f"b_w={key.b_molecular_per_m:g}, b_p={key.b_particle_per_m:g} /m "
+        f"b_w={key.b_molecular_per_m:g}, b_p={key.b_particle_per_m:g} /m, "
+        f"wind {key.wind_speed_mps:g} m/s "
         f"({len(SUN_ZENITH_AIR_DEG) + 1} Monte Carlo runs of {FIRST_USE_PHOTONS} photons; "
         f"cached in {path.parent})",
         file=sys.stderr,

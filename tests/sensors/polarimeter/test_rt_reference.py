@@ -17,6 +17,7 @@ from sensors.polarimeter import stokes as st
 from sensors.polarimeter import surface as sf
 from sensors.polarimeter import water as wa
 from sensors.polarimeter.rt import reference as rf
+from sensors.polarimeter.sky import SkySpec
 
 N = 1.34
 
@@ -188,11 +189,79 @@ def test_the_radiance_distribution_tends_to_an_asymptotic_shape_with_depth():
 
 
 def test_sky_source_is_the_flat_sea_diffuse_transmittance():
-    _, w, q, t_mean = rf.sky_source_tables(N)
-    assert t_mean == pytest.approx(wa.FLAT_SEA_DIFFUSE_TRANSMITTANCE, abs=2e-3)
-    assert np.all(q >= 0) and np.mean(w) == pytest.approx(1.0, abs=0.02)
+    src = rf.sky_source(None, 30.0, N)
+    assert src.transmittance == pytest.approx(wa.FLAT_SEA_DIFFUSE_TRANSMITTANCE, abs=2e-3)
+    assert np.all(np.diff(src.cdf) >= 0) and src.cdf[0] == 0 and src.cdf[-1] == 1
+    assert np.all(src.qu[:, 0] >= 0) and np.all(src.qu[:, 1] == 0)  # Fresnel: p-polarized
     e = sf.fresnel_elements(1.0, 1.0, N, "flux")
     assert float(e.m00) == pytest.approx(1 - ((N - 1) / (N + 1)) ** 2)
+    # The clear sky: brighter towards the sun, so more of its light meets the surface obliquely.
+    sky = rf.sky_source(SkySpec(), 60.0, N)
+    assert sky.transmittance < src.transmittance
+    assert np.all(np.hypot(sky.qu_air[:, 0], sky.qu_air[:, 1]) <= SkySpec().dop_max + 1e-9)
+
+
+def test_the_polarized_sky_s_scattered_light_keeps_its_polarization():
+    """The sky's light scattered in the water is polarized like the sky, not unpolarized.
+
+    A uniform unpolarized sky of the same irradiance (the table's sky before) puts almost no
+    polarization into its scattered light; the Rayleigh sky's forward-scattered light keeps the
+    sky's (mostly its E-vector ⟂ the sun's vertical plane at 90° from the sun: Q < 0 there).
+    """
+    kw = {"source": "sky", "sun_zenith_air_deg": 45.0, "photons": 60_000, "seed": 5}
+    polarized = _solve("II", sky=SkySpec(), **kw)
+    uniform = _solve("II", **kw)
+    th, _ = polarized.grid.centers_deg()
+    k = 9  # c z = 2
+
+    def window_dop(lf: rf.LightField) -> float:
+        t = lf.total[k]
+        i = t[..., 0]
+        dop = np.hypot(t[..., 1], t[..., 2]) / np.maximum(i, 1e-30)
+        inside = th < 48.0
+        return float(np.average(dop[inside], weights=i[inside]))
+
+    assert window_dop(polarized) > 0.15 > 0.05 > window_dop(uniform)
+    # Looking 45° up towards the anti-solar side's zenith region the sky is polarized
+    # perpendicular to the vertical plane through the sun: Q < 0 relative to the meridian.
+    ti = int(np.argmin(np.abs(th - 22.0)))
+    assert np.all(polarized.total[k, ti, [0, -1], 1] < 0)
+
+
+def test_a_rough_sea_conserves_energy_and_tends_to_the_flat_sea():
+    flat = _solve("II", sun_zenith_air_deg=60.0, photons=80_000, seed=2)
+    calm = _solve("II", sun_zenith_air_deg=60.0, photons=80_000, seed=2, wind_speed_mps=1e-6)
+    rough = _solve("II", sun_zenith_air_deg=60.0, photons=80_000, seed=3, wind_speed_mps=10.0)
+    for lf in (calm, rough):
+        budget = lf.absorbed.sum() + lf.escaped_up + lf.lost_bottom + lf.roulette_net
+        assert budget == pytest.approx(1.0, abs=2e-3)
+    # A vanishing wind is the flat sea, within the Monte Carlo error.
+    for k in (3, 9, 14):
+        assert calm.e_down[k] == pytest.approx(flat.e_down[k], abs=4 * flat.e_down_se[k] + 1e-3)
+        assert calm.e_up[k] == pytest.approx(flat.e_up[k], abs=4 * flat.e_up_se[k] + 2e-4)
+    assert calm.surface_transmittance == pytest.approx(flat.surface_transmittance, abs=1e-5)
+    # Facets spread the refracted beam, so its light goes deeper along longer paths.
+    assert rough.e_down[14] < flat.e_down[14]
+
+
+def test_the_rough_sea_lets_in_the_cox_munk_facet_average():
+    """The photons' mean facet transmittance = the Cox–Munk average by quadrature over slopes."""
+    za, wind = 82.0, 10.0
+    lf = _solve("II", sun_zenith_air_deg=za, photons=40_000, seed=4, wind_speed_mps=wind)
+    sigma = math.sqrt(0.5 * sum(sf.cox_munk_variances(wind)))
+    z = np.linspace(-6 * sigma, 6 * sigma, 801)
+    zx, zy = np.meshgrid(z, z)
+    pdf = np.exp(-(zx**2 + zy**2) / (2 * sigma**2))
+    a = np.array([-math.sin(math.radians(za)), 0.0, -math.cos(math.radians(za))])
+    area = np.maximum(1.0 - (a[0] * zx + a[1] * zy) / a[2], 0.0)  # projected on the beam
+    n = np.stack([-zx, -zy, np.ones_like(zx)], -1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    cos_i = np.clip(-(n @ a), 0.0, 1.0)
+    t = np.asarray(sf.fresnel_elements(cos_i, 1.0, N, "flux").m00)
+    expect = float(np.sum(pdf * area * t) / np.sum(pdf * area))
+    flat = float(sf.fresnel_elements(math.cos(math.radians(za)), 1.0, N, "flux").m00)
+    assert lf.surface_transmittance == pytest.approx(expect, abs=1e-3)
+    assert abs(expect - flat) > 0.01  # the facets matter at this sun: the check can fail
 
 
 def test_bad_input_is_refused():
@@ -204,3 +273,5 @@ def test_bad_input_is_refused():
         rf.Grid(planes=(0.1, 0.2))
     with pytest.raises(ValueError, match="batches"):
         _solve("II", photons=1, batches=2)
+    with pytest.raises(ValueError, match="wind_speed_mps"):
+        _solve("II", photons=100, wind_speed_mps=-1.0)
