@@ -15,6 +15,9 @@ Writes ``benchmarks/results/lightfield_reference.md`` and ``.json``:
    The reference at 450, 500, 550 and 600 nm (Williamson & Hollins 2022 a, b of Jerlov 1C; the
    molecular b_w ∝ λ^-4.32, Morel 1974) gives what a single band costs: K_d, and the scattered
    light's AoP and DoP against 500 nm at several depths.
+4. **The sky's scattered light**: the sky model's sky (radiance and polarization) against the
+   uniform unpolarized sky of the same irradiance the table used before.
+5. **The sea's roughness**: a Cox–Munk sea at 5, 10 and 20 m/s against the flat one.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from sensors.polarimeter import stokes as st
 from sensors.polarimeter import water as wa
 from sensors.polarimeter.rt import reference as rf
 from sensors.polarimeter.rt import table as tb
+from sensors.polarimeter.sky import SkySpec
 
 RESULTS = Path(__file__).parent / "results"
 N = tb.TABLE_INDEX
@@ -170,6 +174,62 @@ def spectral(photons: int) -> list[dict]:
     return rows
 
 
+def _window_stats(lf: rf.LightField, k: int) -> tuple[float, float]:
+    """Flux-weighted mean DoP of the scattered light inside Snell's window, and its radiance."""
+    th, _ = lf.grid.centers_deg()
+    t = lf.total[k]
+    i = t[..., 0]
+    dop = np.hypot(t[..., 1], t[..., 2]) / np.maximum(i, 1e-30)
+    inside = th < math.degrees(math.asin(1.0 / N))
+    sa = lf.grid.solid_angle_mu()
+    return float(np.average(dop[inside], weights=(i * sa)[inside])), float((i * sa)[inside].sum())
+
+
+def sky_light(photons: int) -> list[dict]:
+    """The sky's scattered light: the sky model's sky against a uniform unpolarized one."""
+    rows = []
+    for name, za in (("II", 45.0), ("3C", 45.0), ("II", 70.0)):
+        w = wa.jerlov_water(name)
+        pol = _solve(w, photons, source="sky", sky=SkySpec(), sun_zenith_air_deg=za, seed=41)
+        uni = _solve(w, photons, source="sky", sun_zenith_air_deg=za, seed=42)
+        for k in (4, 7, 10, 13):
+            d_p, l_p = _window_stats(pol, k)
+            d_u, l_u = _window_stats(uni, k)
+            rows.append({
+                "water": name, "sun_zenith_air_deg": za, "tau_c": float(pol.grid.planes[k]),
+                "depth_m": float(pol.depths_m()[k]), "dop_sky_model": d_p, "dop_uniform": d_u,
+                "window_flux_ratio": l_p / l_u, "t_sky_model": pol.sky_transmittance,
+                "t_uniform": uni.sky_transmittance,
+            })  # fmt: skip
+    return rows
+
+
+def roughness(photons: int) -> list[dict]:
+    """A Cox–Munk sea against the flat one: E_d, the window's scattered light, the AoP change."""
+    rows = []
+    w = wa.jerlov_water("II")
+    v = None
+    base = None
+    for wind in (0.0, 5.0, 10.0, 20.0):
+        lf = _solve(w, photons, sun_zenith_air_deg=60.0, seed=51, wind_speed_mps=wind)
+        if base is None:
+            base, v = lf, _dirs(lf.grid)
+        for k in (7, 10, 13):
+            d, flux = _window_stats(lf, k)
+            a1, _ = st.to_aop_dop(lf.total[k])
+            a0, d0 = st.to_aop_dop(base.total[k])
+            win = (v[..., 2] > math.cos(math.radians(48.0))) & (d0 > 0.05)
+            da = np.degrees(np.abs(np.angle(np.exp(2j * (a1 - a0))) / 2))[win]
+            rows.append({
+                "wind_mps": wind, "tau_c": float(lf.grid.planes[k]),
+                "depth_m": float(lf.depths_m()[k]), "e_down": float(lf.e_down[k]),
+                "e_down_flat": float(base.e_down[k]), "window_dop": d,
+                "window_flux": flux, "aop_median_diff_deg": float(np.median(da)),
+                "transmittance": lf.surface_transmittance,
+            })  # fmt: skip
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--photons", type=int, default=600_000)
@@ -182,6 +242,8 @@ def main() -> None:
         "validation": validation(a.photons),
         "renderer_off_grid": renderer_off_grid(a.photons),
         "spectral": spectral(a.photons // 2),
+        "sky_light": sky_light(a.photons // 2),
+        "roughness": roughness(a.photons // 2),
     }
     res["elapsed_s"] = time.perf_counter() - t0
     RESULTS.mkdir(exist_ok=True)
@@ -274,6 +336,46 @@ def report(r: dict) -> str:
             f"| {x['wavelength_nm']} | {x['depth_m']:.1f} | {x['kd']:.3f} | "
             f"{x['window_aop_median_deg']:.2f}° | {x['window_dop_mean']:.3f} "
             f"({x['window_dop_mean_500']:.3f}) | {x['radiance_ratio_to_500']:.3f} |"
+        )
+    lines += [
+        "",
+        "## The sky's scattered light: the sky model's sky against a uniform unpolarized one",
+        "",
+        "Source: the sky alone (CIE 12 clear sky, Rayleigh polarization, DoP max 0.75; the disc "
+        "is the sun's source), through the flat surface. Inside Snell's window, the scattered "
+        "light's flux-weighted mean DoP; the flux ratio of the two at equal irradiance below "
+        "the surface; the sea's diffuse transmittance for each sky.",
+        "",
+        "| water | sun zenith | c z | depth m | DoP, sky model | DoP, uniform sky | flux ratio "
+        "| T sky model / uniform |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for x in r["sky_light"]:
+        lines.append(
+            f"| {x['water']} | {x['sun_zenith_air_deg']:g}° | {x['tau_c']:g} | "
+            f"{x['depth_m']:.1f} | {x['dop_sky_model']:.3f} | {x['dop_uniform']:.3f} | "
+            f"{x['window_flux_ratio']:.3f} | {x['t_sky_model']:.3f} / {x['t_uniform']:.3f} |"
+        )
+    lines += [
+        "",
+        "## The sea's roughness (Jerlov II, sun 60°; Cox–Munk clean-surface slopes)",
+        "",
+        "The sun beam's scattered light under a Cox–Munk sea against the flat one: E_d (per "
+        "unit irradiance below the surface), the window's scattered light (flux-weighted DoP, "
+        "flux), the median AoP change in the window (DoP > 0.05; the flat row is 0 by "
+        'construction, the Monte Carlo noise floor is the spectral table\'s "500 again"), and '
+        "the surface's transmittance for the beam.",
+        "",
+        "| wind m/s | c z | depth m | E_d / flat | window DoP | window flux | AoP change "
+        "| T surface |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for x in r["roughness"]:
+        lines.append(
+            f"| {x['wind_mps']:g} | {x['tau_c']:g} | {x['depth_m']:.1f} | "
+            f"{x['e_down'] / x['e_down_flat']:.3f} | {x['window_dop']:.3f} | "
+            f"{x['window_flux']:.4f} | {x['aop_median_diff_deg']:.2f}° | "
+            f"{x['transmittance']:.4f} |"
         )
     lines.append("")
     return "\n".join(lines)

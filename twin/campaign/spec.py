@@ -54,6 +54,7 @@ import numpy as np
 import scenarios
 from scenarios import ScenarioError
 from scenarios.schema import Scenario
+from sensors.polarimeter.rt.table import MODEL_VERSION as LIGHT_MODEL_VERSION
 from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
 
 COMBINE = ("grid", "zip")
@@ -110,8 +111,16 @@ class RunSpec:
 
     @property
     def run_id(self) -> str:
-        """Hash of the resolved scenario and seed (independent of backend and order)."""
-        blob = json.dumps({"scenario": self.scenario, "seed": self.seed}, sort_keys=True)
+        """Hash of the resolved scenario, the seed and the light model's version.
+
+        Independent of backend and order. The light model's version
+        (:data:`sensors.polarimeter.rt.table.MODEL_VERSION`) is in it so that resuming into a
+        folder of runs made with an older light field runs them again instead of reusing them.
+        """
+        blob = json.dumps(
+            {"scenario": self.scenario, "seed": self.seed, "light_model": LIGHT_MODEL_VERSION},
+            sort_keys=True,
+        )
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

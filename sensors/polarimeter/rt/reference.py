@@ -176,6 +176,10 @@ class LightField:
         """
         return np.hypot(self.single_se[k], self.multiple_se[k])
 
+    def total_se_all(self) -> FloatArray:
+        """:meth:`total_se` at every plane, (P, T, n_phi, 3)."""
+        return np.hypot(self.single_se, self.multiple_se)
+
     def depths_m(self) -> FloatArray:
         """The planes' depths in metres."""
         return np.asarray(self.grid.planes) / self.c_per_m

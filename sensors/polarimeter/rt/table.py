@@ -69,13 +69,13 @@ WIND_NODES_MPS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0)
 TABLE_INDEX = 1.34
 #: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
 SHIPPED_PHOTONS = 1_500_000
-#: Histories per sky node for the shipped tables (the scattered sky light is smooth and a
-#: minority of the light; half the sun's histories give it a few % per bin at c z ≈ 3–9).
-SHIPPED_SKY_PHOTONS = 750_000
+#: Histories per sky node for the shipped tables (as many as the sun's: with half as many the
+#: bins' noise, ~4 %, showed in the fast path's interpolation).
+SHIPPED_SKY_PHOTONS = 1_500_000
 #: Histories per source for tables computed on first use.
 FIRST_USE_PHOTONS = 200_000
 #: Histories per sky node for sky tables computed on first use.
-FIRST_USE_SKY_PHOTONS = 100_000
+FIRST_USE_SKY_PHOTONS = 200_000
 
 #: Bumped whenever the transport changes what a table holds, so that stale caches are not read.
 MODEL_VERSION = 2
@@ -174,6 +174,7 @@ class SkyTable:
         e_down: (S, P) the sky light's downwelling irradiance at the planes (direct included).
         transmittance: (S,) the flat sea's diffuse transmittance for this sky.
         photons: Histories per node.
+        field_se: (S, P, T, n_phi) the standard error of the field's radiance.
     """
 
     water: WaterKey
@@ -182,6 +183,7 @@ class SkyTable:
     e_down: FloatArray
     transmittance: FloatArray
     photons: int
+    field_se: FloatArray
 
     @classmethod
     def build(
@@ -207,6 +209,7 @@ class SkyTable:
             e_down=np.stack([f.e_down for f in fields]),
             transmittance=np.array([f.sky_transmittance for f in fields]),
             photons=int(photons),
+            field_se=np.stack([f.total_se_all()[..., 0] for f in fields]).astype(np.float16),
         )
 
     def arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
@@ -225,6 +228,7 @@ class SkyTable:
             f"{prefix}e_down": self.e_down,
             f"{prefix}transmittance": self.transmittance,
             f"{prefix}photons": np.array(self.photons),
+            f"{prefix}field_se_per_ed": _per(self.field_se, self.e_down[:, :, None, None]),
         }
 
     @functools.cached_property
@@ -254,6 +258,9 @@ class SkyTable:
             e_down=ed,
             transmittance=np.asarray(d[f"{prefix}transmittance"], dtype=float),
             photons=int(d[f"{prefix}photons"]),
+            field_se=np.nan_to_num(
+                np.asarray(d[f"{prefix}field_se_per_ed"], dtype=np.float32) * ed[:, :, None, None]
+            ),
         )
 
 
