@@ -1,12 +1,13 @@
-"""The LIG paper's sea trials in the twin: POL/INS falls behind LIG/INS with depth.
+"""The LIG paper's sea trials in the twin: POL/INS and LIG/INS with depth.
 
 The paper (hu2024 §4.3) reports heading errors POL/INS 3.6° vs LIG/INS 1.6° at 10 m and 16.1° vs
 2.2° at 15 m. In the twin's radiative-transfer light field (docs/polarimeter.md) the polarization
 pattern's apparent sun drifts towards the zenith with depth and a filter that fuses the full
-solar vector (as the paper's does) inherits it: POL/INS degrades from 10 to 15 m while LIG/INS
-stays nearly flat. At 10 m the two are close — POL even ahead in the first minute and over whole
-trials (benchmarks/results/sea_trials.md) — which is what transport gives, not the paper's
-ranking; these tests assert what the physics gives.
+solar vector (as the paper's does) inherits it. With the sky model's own sky as the source of the
+scattered sky light, LIG's intensity pattern is biased too (the sky is brighter towards the sun
+but low); benchmarks/results/sea_trials.md has the whole trials over several seeds. These tests
+assert what the physics gives over the first minute: both vectors drag the level, POL's more at
+15 m than at 10 m, LIG's less.
 """
 
 from __future__ import annotations
@@ -32,16 +33,19 @@ def _variants(depth: int, duration_s: float, tmp: Path) -> dict:
 
 
 def test_the_first_minute_of_both_trials_shows_the_trend(tmp_path) -> None:
-    gap = {}
+    roll = {}
     for depth in (10, 15):
         v = _variants(depth, 60.0, tmp_path)
-        pol, lig = v["pol"], v["lig"]
-        assert pol["compass"]["sun_updates_applied"] == pol["compass"]["fixes"] > 50  # no gate
-        # POL's zenith-biased sun drags the level: its roll error is several degrees, LIG's is not.
-        assert pol["roll_rmse_deg"] > 3.0 > 1.5 > lig["roll_rmse_deg"]
-        gap[depth] = pol["heading_rmse_deg"] - lig["heading_rmse_deg"]
-    assert gap[15] > 0  # at 15 m LIG/INS is ahead …
-    assert gap[15] > gap[10]  # … and POL/INS has lost ground since 10 m
+        ins, pol, lig = v["ins"], v["pol"], v["lig"]
+        for m in (pol, lig):
+            assert m["compass"]["sun_updates_applied"] == m["compass"]["fixes"] > 50  # no gate
+            # Both solar vectors carry an elevation bias that a full-vector update turns into
+            # a tilt error: several times the INS's own.
+            assert m["roll_rmse_deg"] > 5 * ins["roll_rmse_deg"]
+        roll[depth] = (pol["roll_rmse_deg"], lig["roll_rmse_deg"])
+    # POL's bias grows from 10 to 15 m, LIG's shrinks (measured 2.43 → 3.05°, 2.74 → 1.78°).
+    assert roll[15][0] > roll[10][0] + 0.3
+    assert roll[15][1] < roll[10][1] - 0.5
 
 
 @pytest.mark.slow

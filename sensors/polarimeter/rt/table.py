@@ -258,8 +258,13 @@ class SkyTable:
             e_down=ed,
             transmittance=np.asarray(d[f"{prefix}transmittance"], dtype=float),
             photons=int(d[f"{prefix}photons"]),
-            field_se=np.nan_to_num(
-                np.asarray(d[f"{prefix}field_se_per_ed"], dtype=np.float32) * ed[:, :, None, None]
+            field_se=(
+                np.nan_to_num(
+                    np.asarray(d[f"{prefix}field_se_per_ed"], dtype=np.float32)
+                    * ed[:, :, None, None]
+                )
+                if f"{prefix}field_se_per_ed" in d
+                else np.full(ed.shape + d[f"{prefix}field_per_ed"].shape[2:4], np.nan, np.float32)
             ),
         )
 
