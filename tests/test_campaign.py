@@ -140,7 +140,8 @@ def test_a_failing_run_and_a_slow_run_are_recorded_and_the_campaign_goes_on(
     broken = RunSpec(99, (), 0, {**spec.runs[0].scenario, "duration_s": "long"})
     row = execute_run(broken, job)
     assert row["status"] == "error" and "duration_s" in row["error"]
-    slow = execute_run(spec.runs[0], {**job, "wall_time_limit_s": 0.05})
+    # 1 ms: no run finishes that fast, on any machine (50 ms did, once runs got quick enough).
+    slow = execute_run(spec.runs[0], {**job, "wall_time_limit_s": 0.001})
     assert slow["status"] == "timeout" and "wall-time limit" in slow["error"]
     ok = execute_run(spec.runs[0], job)
     assert ok["status"] == "ok"
@@ -369,7 +370,8 @@ def test_a_worker_that_dies_costs_one_retry_and_the_campaign_completes(tmp_path:
     import psutil
 
     spec_path = tmp_path / "d.toml"
-    spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 4").replace("2.0\n[[", "6.0\n[["))
+    # 30 s trials: the campaign must still be running when a worker is killed, on a fast machine.
+    spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 4").replace("2.0\n[[", "30.0\n[["))
     spec = load_campaign(spec_path)
     out = tmp_path / "d"
     result: dict = {}

@@ -145,30 +145,13 @@ def _score_segment(rad, irr, planes, tau_a, tau_b, cls, ph, scattered, edges_cos
                 _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi)
 
 
-@njit(cache=True)
-def _reflect_from_below(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water):
-    """Fresnel reflection at the flat surface of light coming up (d_z > 0).
+@njit(cache=True, inline="always")
+def _fresnel_from_below(cos_i, n_water, si, sq, su, sv):
+    """The Stokes vector (p-axis reference) reflected from below at incidence cosine ``cos_i``.
 
-    Returns the reflected Stokes (I, Q, U, V), its new d_z and reference (the p-axis s × d' of the
-    plane of incidence, s ∝ ẑ × d), and the escaped flux. Born & Wolf amplitudes; beyond the
-    critical angle cos θ_t is imaginary and the reflection total, with its retardance
-    (U' = Re(r_p r_s*) U − Im(r_p r_s*) V, V' = Im U + Re V).
+    Born & Wolf amplitudes; beyond the critical angle cos θ_t is imaginary and the reflection
+    total, with its retardance (U' = Re(r_p r_s*) U − Im(r_p r_s*) V, V' = Im U + Re V).
     """
-    h = math.sqrt(max(dx * dx + dy * dy, 0.0))
-    if h < 1e-12:
-        sx, sy = 0.0, 1.0
-    else:
-        sx, sy = -dy / h, dx / h
-    px = sy * dz
-    py = -sx * dz
-    pz = sx * dy - sy * dx
-    # Stokes into the (p, s) basis: χ from r to p about d.
-    cx = ry * pz - rz * py
-    cy = rz * px - rx * pz
-    cz = rx * py - ry * px
-    chi = math.atan2(cx * dx + cy * dy + cz * dz, rx * px + ry * py + rz * pz)
-    sq, su = _rotate(sq, su, chi)
-    cos_i = dz
     sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
     if sin_t2 < 1.0:
         cos_t = complex(math.sqrt(1.0 - sin_t2), 0.0)
@@ -183,6 +166,27 @@ def _reflect_from_below(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water):
     nq = 0.5 * (r_p - r_s) * si + 0.5 * (r_p + r_s) * sq
     nu = zc.real * su - zc.imag * sv
     nv = zc.imag * su + zc.real * sv
+    return ni, nq, nu, nv
+
+
+@njit(cache=True)
+def _reflect_from_below(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water):
+    """Fresnel reflection at the flat surface of light coming up (d_z > 0).
+
+    Returns the reflected Stokes (I, Q, U, V), its new d_z and reference (the p-axis s × d' of the
+    plane of incidence, s ∝ ẑ × d), and the escaped flux. Born & Wolf amplitudes; beyond the
+    critical angle cos θ_t is imaginary and the reflection total, with its retardance
+    (U' = Re(r_p r_s*) U − Im(r_p r_s*) V, V' = Im U + Re V).
+    """
+    h = math.sqrt(max(dx * dx + dy * dy, 0.0))
+    if h < 1e-12:
+        sx, sy = 0.0, 1.0
+    else:
+        sx, sy = -dy / h, dx / h
+    # Stokes into the (p, s) basis of the plane of incidence (p = s × d).
+    sq, su = _to_p_basis(dx, dy, dz, rx, ry, rz, sq, su, sx, sy, 0.0)
+    cos_i = dz
+    ni, nq, nu, nv = _fresnel_from_below(cos_i, n_water, si, sq, su, sv)
     ndz = -dz
     return ni, nq, nu, nv, ndz, sy * ndz, -sx * ndz, sx * dy - sy * dx, si - ni
 
@@ -251,20 +255,7 @@ def _reflect_facet(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water, nx, ny, nz):
     sx, sy, sz = _s_axis(dx, dy, dz, nx, ny, nz)
     sq, su = _to_p_basis(dx, dy, dz, rx, ry, rz, sq, su, sx, sy, sz)
     cos_i = min(max(dx * nx + dy * ny + dz * nz, 0.0), 1.0)
-    sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
-    if sin_t2 < 1.0:
-        cos_t = complex(math.sqrt(1.0 - sin_t2), 0.0)
-    else:
-        cos_t = complex(0.0, math.sqrt(sin_t2 - 1.0))
-    rs = (n_water * cos_i - cos_t) / (n_water * cos_i + cos_t)
-    rp = (cos_i - n_water * cos_t) / (cos_i + n_water * cos_t)
-    r_s = abs(rs) ** 2
-    r_p = abs(rp) ** 2
-    zc = rp * rs.conjugate()
-    ni = 0.5 * (r_p + r_s) * si + 0.5 * (r_p - r_s) * sq
-    nq = 0.5 * (r_p - r_s) * si + 0.5 * (r_p + r_s) * sq
-    nu = zc.real * su - zc.imag * sv
-    nv = zc.imag * su + zc.real * sv
+    ni, nq, nu, nv = _fresnel_from_below(cos_i, n_water, si, sq, su, sv)
     ex = dx - 2.0 * cos_i * nx
     ey = dy - 2.0 * cos_i * ny
     ez = dz - 2.0 * cos_i * nz
