@@ -306,6 +306,28 @@ def _enter_facet(ax, ay, az, rx, ry, rz, si, sq, su, n_water, nx, ny, nz):
     return ni, nq, nu, 0.0, tx, ty, tz, qx, qy, qz
 
 
+@njit(cache=True, inline="always")
+def _draw_sky(cdf, s2_edges, n_cols):
+    """A sky photon: its cell, its sin²θ_a and its azimuth (uniform within the cell).
+
+    The cell is the first whose cumulative flux exceeds a uniform draw (binary search).
+    """
+    x = np.random.random()
+    lo = 0
+    hi = cdf.shape[0] - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if cdf[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    row = lo // n_cols
+    col = lo - row * n_cols
+    s2 = s2_edges[row] + np.random.random() * (s2_edges[row + 1] - s2_edges[row])
+    phi = (col + np.random.random()) * (2.0 * math.pi / n_cols)
+    return lo, s2, phi
+
+
 @njit(cache=True)
 def _roulette(si, sq, su, sv, start, totals):
     """Russian roulette below ROULETTE_WEIGHT of the start weight.
@@ -407,24 +429,9 @@ def transport(
             q0 = beam_q
             u0 = 0.0
         else:
-            # The cell: the first whose cumulative flux exceeds a uniform draw (binary search).
-            x = np.random.random()
-            lo = 0
-            hi = n_cells
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                if sky_cdf[mid] <= x:
-                    lo = mid
-                else:
-                    hi = mid
-            row = lo // n_cols
-            col = lo - row * n_cols
-            s2 = sky_s2_edges[row] + np.random.random() * (
-                sky_s2_edges[row + 1] - sky_s2_edges[row]
-            )
+            lo, s2, phi0 = _draw_sky(sky_cdf, sky_s2_edges, n_cols)
             st = math.sqrt(max(s2, 0.0)) / n_water  # Snell: sin θ_w = sin θ_a / n
             ct = math.sqrt(max(1.0 - st * st, 0.0))
-            phi0 = (col + np.random.random()) * (2.0 * math.pi / n_cols)
             w0 = 1.0
             q0 = sky_qu[lo, 0]
             u0 = sky_qu[lo, 1]
@@ -455,23 +462,9 @@ def transport(
                 aq = 0.0
                 au = 0.0
             else:
-                x = np.random.random()
-                lo = 0
-                hi = n_cells
-                while hi - lo > 1:
-                    mid = (lo + hi) // 2
-                    if sky_cdf_air[mid] <= x:
-                        lo = mid
-                    else:
-                        hi = mid
-                row = lo // n_cols
-                col = lo - row * n_cols
-                s2 = sky_s2_edges[row] + np.random.random() * (
-                    sky_s2_edges[row + 1] - sky_s2_edges[row]
-                )
+                lo, s2, aphi = _draw_sky(sky_cdf_air, sky_s2_edges, n_cols)
                 sa = math.sqrt(min(max(s2, 0.0), 1.0))
                 ca = math.sqrt(max(1.0 - sa * sa, 0.0))
-                aphi = (col + np.random.random()) * (2.0 * math.pi / n_cols)
                 aq = sky_qu_air[lo, 0]
                 au = sky_qu_air[lo, 1]
             ax = -sa * math.cos(aphi)
