@@ -245,6 +245,16 @@ def _to_p_basis(dx, dy, dz, rx, ry, rz, sq, su, sx, sy, sz):
     return _rotate(sq, su, chi)
 
 
+@njit(cache=True, inline="always")
+def _unit_and_p_axis(x, y, z, sx, sy, sz):
+    """A new direction made unit, and its p-axis s × d in the plane of incidence of axis s."""
+    n = 1.0 / math.sqrt(x * x + y * y + z * z)
+    x *= n
+    y *= n
+    z *= n
+    return x, y, z, sy * z - sz * y, sz * x - sx * z, sx * y - sy * x
+
+
 @njit(cache=True)
 def _reflect_facet(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water, nx, ny, nz):
     """Fresnel reflection from below at a facet with upward normal n (d·n > 0).
@@ -259,13 +269,7 @@ def _reflect_facet(dx, dy, dz, rx, ry, rz, si, sq, su, sv, n_water, nx, ny, nz):
     ex = dx - 2.0 * cos_i * nx
     ey = dy - 2.0 * cos_i * ny
     ez = dz - 2.0 * cos_i * nz
-    en = 1.0 / math.sqrt(ex * ex + ey * ey + ez * ez)
-    ex *= en
-    ey *= en
-    ez *= en
-    qx = sy * ez - sz * ey
-    qy = sz * ex - sx * ez
-    qz = sx * ey - sy * ex
+    ex, ey, ez, qx, qy, qz = _unit_and_p_axis(ex, ey, ez, sx, sy, sz)
     return ni, nq, nu, nv, ex, ey, ez, qx, qy, qz, si - ni
 
 
@@ -296,13 +300,7 @@ def _enter_facet(ax, ay, az, rx, ry, rz, si, sq, su, n_water, nx, ny, nz):
     tx = eta * ax + k * nx
     ty = eta * ay + k * ny
     tz = eta * az + k * nz
-    tn = 1.0 / math.sqrt(tx * tx + ty * ty + tz * tz)
-    tx *= tn
-    ty *= tn
-    tz *= tn
-    qx = sy * tz - sz * ty
-    qy = sz * tx - sx * tz
-    qz = sx * ty - sy * tx
+    tx, ty, tz, qx, qy, qz = _unit_and_p_axis(tx, ty, tz, sx, sy, sz)
     return ni, nq, nu, 0.0, tx, ty, tz, qx, qy, qz
 
 
