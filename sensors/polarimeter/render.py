@@ -521,11 +521,7 @@ class Polarimeter(Sensor):
         """Draw the sensor's fixed pattern and the sea surface from this sensor's stream."""
         seeds = rng.spawn(2)
         self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, seeds[0])
-        o = self.optics
-        sea = surface_mod.WindSea(
-            wind_speed_mps=o.wind_speed_mps,
-            wind_dir_rad=math.radians(90.0 - o.wind_toward_deg),
-        )
+        sea = self._sea()
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
         self._last_t = None
         self.truth = None
@@ -569,7 +565,9 @@ class Polarimeter(Sensor):
 
         For studies with known truth (compass accuracy tables, benchmarks, tests): no occlusion,
         the sensor's fixed pattern drawn from ``rng`` on first use (then kept), temporal noise
-        from ``rng``.
+        from ``rng``. A wavy sea (``OpticsConfig.wind_speed_mps`` > 0) is drawn from ``rng`` on
+        first use too and evolves with ``t``: frames at increasing ``t`` see the same
+        time-correlated waves a run would (the camera at the surface's origin).
 
         Args:
             c_cn: C_c^n, camera → ENU (3×3 rotation).
@@ -586,12 +584,34 @@ class Polarimeter(Sensor):
             raise ValueError("c_cn: must be a 3x3 rotation matrix (camera -> ENU)")
         if not math.isfinite(depth_m):
             raise ValueError(f"depth_m: {depth_m!r}; allowed: a finite depth in m")
+        if not math.isfinite(t):
+            raise ValueError(f"t: {t!r}; allowed: a finite time in s")
         if self._dofp is None:
             self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng)
+        self._offline_waves(float(t), rng)
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):
             raise ValueError("sun: must be a SunPosition or a unit ENU vector")
         return self._expose(None, np.zeros(3), c, float(depth_m), sun, rng, t)
+
+    def _offline_waves(self, t: float, rng: np.random.Generator) -> None:
+        """render_offline's sea: drawn on first use (a wavy sea only), stepped to ``t``."""
+        if self._waves is not None and self._waves.sea != self._sea():
+            self._waves = None  # reconfigured: another sea
+        if self._waves is None:
+            if self.optics.wind_speed_mps <= 0.0:
+                return
+            self._waves = surface_mod.WaveSurface(self._sea(), rng.spawn(1)[0])
+            self._last_t = t
+        if self._last_t is not None and t > self._last_t:
+            self._waves.step(t - self._last_t)
+        self._last_t = t
+
+    def _sea(self) -> surface_mod.WindSea:
+        o = self.optics
+        return surface_mod.WindSea(
+            wind_speed_mps=o.wind_speed_mps, wind_dir_rad=math.radians(90.0 - o.wind_toward_deg)
+        )
 
     def _expose(
         self,

@@ -239,3 +239,28 @@ def test_a_flat_port_sees_only_the_water_within_its_own_critical_cone():
     dome = _camera()
     _, t_dome = dome.render_offline(np.eye(3), 3.0, _sun(30, 100), np.random.default_rng(9))
     assert truth.snell_window.sum() > 1.5 * t_dome.snell_window.sum()  # the window is magnified
+
+
+def test_render_offline_sees_the_wavy_sea_and_its_waves_evolve_with_t():
+    """Offline frames get the scenario's sea state, time-correlated, as a run's frames do."""
+    sun = _sun(40, 120)
+
+    def frames(wind: float, ts: tuple[float, ...], seed: int = 9) -> list:
+        cam = _camera("ideal_bin4", wind_speed_mps=wind)
+        rng = np.random.default_rng(seed)
+        return [cam.render_offline(np.eye(3), 1.0, sun, rng, t=t)[1] for t in ts]
+
+    flat = frames(0.0, (0.0,))[0]
+    a0, a1, a5 = frames(5.0, (0.0, 0.05, 5.0))  # 5 m/s: a table node (computed once)
+    b0 = frames(5.0, (0.0,))[0]
+    assert np.array_equal(a0.stokes, b0.stokes)  # same seed, same sea
+    # The waves move the window's rim: its mask differs from the flat sea's ...
+    assert 0.002 < np.mean(a0.snell_window != flat.snell_window) < 0.2
+    # ... and the sea evolves: 50 ms later it has changed a little, 5 s later much more.
+    d_short = np.mean(a1.snell_window != a0.snell_window)
+    d_long = np.mean(a5.snell_window != a0.snell_window)
+    assert 0.0 < d_short < d_long
+    with pytest.raises(ValueError, match="t:"):
+        _camera("ideal_bin4").render_offline(
+            np.eye(3), 1.0, sun, np.random.default_rng(0), t=math.nan
+        )
