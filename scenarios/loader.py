@@ -194,6 +194,16 @@ BERRY_DELTA_DEG = Range(0.0, 60.0)
 ZENITH_RADIANCE = Range(0.0, 10.0, lo_open=True)
 TURBIDITY = Range(0.0, 50.0, lo_open=True)
 WIND_SPEED_MPS = Range(0.0, 30.0)
+#: The Beaufort scale's wind speeds (m/s at 10 m), force 0–11: the middle of each force's range
+#: in WMO's table (WMO-No. 8, Guide to Instruments and Methods of Observation, Annex 5.A:
+#: 0–0.2, 0.3–1.5, 1.6–3.3, 3.4–5.4, 5.5–7.9, 8.0–10.7, 10.8–13.8, 13.9–17.1, 17.2–20.7,
+#: 20.8–24.4, 24.5–28.4, 28.5–32.6 m/s). Force 11's middle (30.55) is clipped to the surface
+#: model's 30 m/s; force 12 (≥ 32.7 m/s) is beyond it. The 2 % difference between WMO's 10 m
+#: and Cox & Munk's 12.5 m (a neutral log profile over the sea) is well inside a force's range.
+BEAUFORT_MPS: tuple[float, ...] = (
+    0.1, 0.9, 2.45, 4.4, 6.7, 9.35, 12.3, 15.5, 18.95, 22.6, 26.45, 30.0,
+)  # fmt: skip
+BEAUFORT_FORCE = Range(0.0, 11.0)
 WAVELENGTH_NM = Range(400.0, 700.0)
 GATE_PROBABILITY = Range(0.5, 1.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
@@ -874,12 +884,28 @@ def _optics(t: _Table | None) -> Optics | None:
             "zenith_radiance_w_m2_sr_nm", ZENITH_RADIANCE, default=0.05
         ),
         turbidity=t.number("turbidity", TURBIDITY, default=1.0),
-        wind_speed_mps=t.number("wind_speed_mps", WIND_SPEED_MPS, default=0.0),
+        wind_speed_mps=_wind(t),
         wind_toward_deg=t.number("wind_toward_deg", COMPASS_DEG, default=0.0),
         wavelength_nm=t.number("wavelength_nm", WAVELENGTH_NM, default=500.0),
     )
     t.finish()
     return optics
+
+
+def _wind(t: _Table) -> float | None:
+    """optics.wind_speed_mps, or the speed of optics.wind_beaufort (one of them, not both)."""
+    if "wind_beaufort" in t.data and "wind_speed_mps" in t.data:
+        t.known += ["wind_beaufort", "wind_speed_mps"]
+        t.report.add(
+            t.at("wind_beaufort"),
+            "given together with wind_speed_mps; expected one of them: a Beaufort force "
+            "(integer 0–11) or a speed in m/s",
+        )
+        return None
+    if "wind_beaufort" in t.data:
+        force = t.integer("wind_beaufort", BEAUFORT_FORCE)
+        return None if force is None else BEAUFORT_MPS[int(force)]
+    return t.number("wind_speed_mps", WIND_SPEED_MPS, default=0.0)
 
 
 def _autopilot(t: _Table | None) -> Autopilot | None:

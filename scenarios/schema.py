@@ -218,7 +218,9 @@ class Optics:
         berry_delta_deg: Berry model: angular separation of the Babinet and Brewster points.
         zenith_radiance_w_m2_sr_nm: Absolute zenith sky radiance at ``wavelength_nm``.
         turbidity: Multiplier on the water type's particle scattering (1 = the Jerlov type).
-        wind_speed_mps: Wind speed at 12.5 m for Cox–Munk surface slopes; 0 = flat surface.
+        wind_speed_mps: Wind speed at 12.5 m for Cox–Munk surface slopes; 0 = flat surface. A
+            scenario may give ``wind_beaufort`` (force 0–11) instead: the middle of WMO's range
+            for that force (``scenarios.loader.BEAUFORT_MPS``).
         wind_toward_deg: Compass direction the wind blows toward.
         wavelength_nm: The one wavelength the optics are evaluated at.
     """

@@ -708,6 +708,8 @@ def test_optics_and_polarimeter_settings_validate_and_round_trip() -> None:
         ("dop_max", 1.5, "optics.dop_max"),
         ("turbidity", -1.0, "optics.turbidity"),
         ("wind_speed_mps", 40.0, "optics.wind_speed_mps"),
+        ("wind_beaufort", 12, "optics.wind_beaufort"),
+        ("wind_beaufort", 5.5, "optics.wind_beaufort"),
         ("wavelength_nm", 1000.0, "optics.wavelength_nm"),
         ("haze", 1.0, "optics.haze"),
     ],
@@ -718,3 +720,15 @@ def test_bad_optics_name_the_field(key: str, value: object, field: str) -> None:
     with pytest.raises(ScenarioError) as info:
         parse_scenario(d)
     assert field in str(info.value)
+
+
+def test_the_wind_may_be_a_beaufort_force_but_not_both() -> None:
+    d = load("default").to_dict()
+    d["optics"].pop("wind_speed_mps", None)
+    d["optics"]["wind_beaufort"] = 5
+    s = parse_scenario(d)
+    assert s.optics.wind_speed_mps == pytest.approx(9.35)  # WMO force 5: 8.0–10.7 m/s
+    assert parse_scenario(s.to_dict()) == s  # written back as the speed
+    d["optics"]["wind_speed_mps"] = 3.0
+    with pytest.raises(ScenarioError, match=r"wind_beaufort.*wind_speed_mps"):
+        parse_scenario(d)
