@@ -52,12 +52,17 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=20231228)
     ap.add_argument("--depth", type=float, default=2.0)
     ap.add_argument("--tilts", type=str, default=None, help="comma-separated subset of tilts")
+    ap.add_argument("--jerlov", default="II", help="Jerlov water type")
+    ap.add_argument(
+        "--wind", type=float, default=0.0, help="wind at 12.5 m, m/s (frames 1 s apart)"
+    )
+    ap.add_argument("--stem", default="snell_attitude", help="results file name")
     args = ap.parse_args()
     tilts = [int(t) for t in args.tilts.split(",")] if args.tilts else TILTS_DEG
 
     preset = "phx050s_p" if args.full else "phx050s_p_bin4"
     cam = sensors.create("polarimeter", preset)
-    cam.configure(OpticsConfig(jerlov_type="II"))
+    cam.configure(OpticsConfig(jerlov_type=args.jerlov, wind_speed_mps=args.wind))
     cal = cam.calibration()
     rng = np.random.default_rng(args.seed)
     sun = sun_vec(args.sun_elevation, 150.0)
@@ -73,7 +78,8 @@ def main() -> None:
                 p = tilt if axis == "pitch" else 0.0
                 c = euler_to_dcm(math.radians(r), math.radians(p), math.radians(-h))
                 t0 = time.perf_counter()
-                raw, _ = cam.render_offline(c, args.depth, sun, rng)
+                # Frames 1 s apart: on a wavy sea each sees the waves of its own moment.
+                raw, _ = cam.render_offline(c, args.depth, sun, rng, t=float(len(rows)))
                 t1 = time.perf_counter()
                 ctx0 = CompassContext(
                     utc=dt.datetime(2023, 12, 28, 2),
@@ -166,7 +172,7 @@ def main() -> None:
     }
     # One file for both resolutions: this run replaces the earlier one of the same preset.
     RESULTS.mkdir(exist_ok=True)
-    jpath = RESULTS / "snell_attitude.json"
+    jpath = RESULTS / f"{args.stem}.json"
     runs = {}
     if jpath.exists():
         try:
@@ -177,7 +183,7 @@ def main() -> None:
     order = sorted(runs, key=lambda k: runs[k]["size"][0])  # binned first
     jpath.write_text(json.dumps({"paper_mae_deg": PAPER_MAE_DEG, "runs": runs}, indent=1))
     text = render_md([runs[k] for k in order])
-    (RESULTS / "snell_attitude.md").write_text(text)
+    (RESULTS / f"{args.stem}.md").write_text(text)
     print(text)
 
 
@@ -186,7 +192,8 @@ def render_md(runs: list[dict]) -> str:
     lines = [
         "# Snell-window attitude (xin2024) and ROI-A heading (fang2024) across tilt",
         "",
-        "Jerlov II water; each tilt about the roll axis and, separately, about the pitch axis; "
+        "Each tilt about the roll axis and, separately, about the pitch axis (water, wind and "
+        "depth per section); "
         "ROI-A gets the true roll/pitch as its INS hint and is scored on heading only. Generated "
         "by `python benchmarks/snell_attitude.py` (binned camera) and "
         "`python benchmarks/snell_attitude.py --full --tilts=-50,-25,0,25,50` (full resolution); "
@@ -215,7 +222,8 @@ def render_md(runs: list[dict]) -> str:
             f"## `{run['preset']}` ({run['size'][0]}×{run['size'][1]}): per tilt "
             "(MAE over headings and both axes, degrees)",
             "",
-            f"Depth {c['depth']} m, sun elevation {c['sun_elevation']}° azimuth 150°, seed "
+            f"Jerlov {c.get('jerlov', 'II')} water, wind {c.get('wind', 0.0):g} m/s (frames 1 s "
+            f"apart), depth {c['depth']} m, sun elevation {c['sun_elevation']}° azimuth 150°, seed "
             f"{c['seed']}, headings {', '.join(f'{x:.0f}' for x in run['headings_deg'])}°; "
             f"{run['frames']} frames. Time per frame: render {run['ms_per_frame']['render']:.0f} "
             f"ms, snell {run['ms_per_frame']['snell']:.0f} ms, roia "
