@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from sensors.polarimeter import water as wa
+from sensors.polarimeter.rt import sky_table as skt
 from sensors.polarimeter.rt import table as tb
 from sensors.polarimeter.sky import SkySpec
 
@@ -25,7 +26,7 @@ from sensors.polarimeter.sky import SkySpec
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--photons", type=int, default=tb.SHIPPED_PHOTONS)
-    p.add_argument("--sky-photons", type=int, default=tb.SHIPPED_SKY_PHOTONS)
+    p.add_argument("--sky-photons", type=int, default=skt.SHIPPED_SKY_PHOTONS)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--types", nargs="*", default=list(wa.JERLOV_TYPES))
     p.add_argument("--out", type=Path, default=tb.DATA_FILE, help="default: the shipped file")
@@ -46,10 +47,10 @@ def main() -> None:
         else:
             t = tb.LightFieldTable.build(key, a.photons, seed=i, workers=a.workers)
         arrays.update(t.arrays(prefix=f"{name}/"))
-        sky = tb.SkyTable.build(
-            t.key, tb.SkyKey.of(SkySpec()), a.sky_photons, seed=i, workers=a.workers
+        sky = skt.SkyTable.build(
+            t.key, skt.SkyKey.of(SkySpec()), a.sky_photons, seed=i, workers=a.workers
         )
-        arrays.update(sky.arrays(prefix=f"{name}/{tb.SKY_PREFIX}"))
+        arrays.update(sky.arrays(prefix=f"{name}/{skt.SKY_PREFIX}"))
         names.append(name)
         rel = t.sun_se.astype(float) / np.maximum(t.sun[..., 0], 1e-30)
         sky_rel = sky.field_se.astype(float) / np.maximum(sky.field[..., 0], 1e-30)

@@ -44,10 +44,11 @@ What reaches the camera at depth z along v is the sum of three Stokes fields, al
 The per-pixel work (2 and 3) is one compiled loop (:mod:`sensors.polarimeter.column_kernel`).
 
 Limits, honestly: one wavelength (the water's IOPs at 500 nm by default; see docs/polarimeter.md
-for what a single band costs); homogeneous, deep water (no bottom); a flat surface for the sun beam
-and for the scattered light (waves act on the direct sky light only, in the surface stage); the
-scattered sky light is the sky model's own sky at the table's sun nodes (interpolated between
-them), through a flat surface; the table's multiply scattered light is resolved to its bins
+for what a single band costs); homogeneous, deep water (no bottom); the closed-form single
+scattering sees the mean refracted sun beam, the table's scattered light the Cox–Munk statistics
+of the sea's wind (its nodes interpolated), and only the direct sky light the instantaneous waves
+(surface stage); the scattered sky light is the sky model's own sky at the table's sun nodes
+(interpolated between them); the table's multiply scattered light is resolved to its bins
 (3–4° in look zenith, 15° in azimuth; the sharp parts, the direct light and the single-scattered
 aureole, are closed form); Monte Carlo noise in the table (its standard error ships with it); no
 inelastic scattering.
@@ -71,6 +72,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sensors.polarimeter import column_kernel, scattering
+from sensors.polarimeter.rt import sky_table as rt_sky
 from sensors.polarimeter.rt import table as rt_table
 from sensors.polarimeter.scattering import (  # noqa: F401  (re-exported: the phase functions)
     ff_backscatter_fraction,
@@ -357,7 +359,7 @@ class WaterColumn:
         )
         pm = self.phase
         self._luts = np.ascontiguousarray(np.stack([pm.beta, pm.m12, pm.m22, pm.m33]))
-        self.sky_key = rt_table.SkyKey.of(SkySpec() if sky is None else sky)
+        self.sky_key = rt_sky.SkyKey.of(SkySpec() if sky is None else sky)
         self.wind_speed_mps = float(wind_speed_mps)
         # [(table key, weight)]: the wind nodes around this sea's wind.
         self._nodes = [
@@ -374,9 +376,9 @@ class WaterColumn:
         return rt_table.table_for(self._nodes[0][0])
 
     @property
-    def sky_table(self) -> rt_table.SkyTable:
+    def sky_table(self) -> rt_sky.SkyTable:
         """The scattered light of this sky over this water (as :attr:`table`)."""
-        return rt_table.sky_table_for(self._nodes[0][0], self.sky_key)
+        return rt_sky.sky_table_for(self._nodes[0][0], self.sky_key)
 
     def volume_scattering(self, cos_psi: ArrayLike) -> FloatArray:
         """β(Θ) = b_w p_w(Θ) + b_p p_FF(Θ) (m⁻¹ sr⁻¹) as the renderer uses it.
@@ -436,9 +438,9 @@ class WaterColumn:
         if multiple and w.b_per_m > 0 and (e_sun_plane > 0 or e_sky_plane > 0):
             th = math.acos(min(mu_s, 1.0))
             tables = [(rt_table.table_for(k), wt, k) for k, wt in self._nodes]
-            skies: list[rt_table.SkyTable | None] = [None] * len(tables)
+            skies: list[rt_sky.SkyTable | None] = [None] * len(tables)
             if not night and e_sky_plane > 0:
-                skies = [rt_table.sky_table_for(k, self.sky_key) for _, _, k in tables]
+                skies = [rt_sky.sky_table_for(k, self.sky_key) for _, _, k in tables]
                 # This sky's own transmittance (its light is not uniform over the sky).
                 e_sky_plane = float(e_sky_air) * sum(
                     wt * t.sky_transmittance(sk, th, self.n)

@@ -13,14 +13,12 @@ single-scattering albedo b/c follow from them) the table holds, from
 * the downwelling irradiances at the planes (for depth interpolation) and the standard error of
   the sun field's radiance;
 
-and, per sky model (:class:`SkyTable`, keyed by what shapes the sky: CIE type, polarization model,
-DoP maximum, Berry's δ), all the scattered light of the **sky model's own sky** — its radiance
-distribution and its polarization for the sun at each node, through the flat surface's Fresnel
-matrix — per unit sky plane irradiance below the surface, with the flat sea's diffuse
-transmittance for that sky. The renderer's direct sky light is exact; its scattered part comes
-from here. (Replacing the sky by a uniform unpolarized one of the same irradiance, as this table
-did before, dilutes the window's polarization: at 2 m in Jerlov II the scattered sky light inside
-the window has a flux-weighted DoP of 0.22 from the Rayleigh sky, 0.015 from the uniform one.)
+and, per sky model, all the scattered light of the sky model's own sky at the same sun nodes
+(:mod:`sensors.polarimeter.rt.sky_table`). The renderer's direct sky light is exact; its scattered
+part comes from there. (Replacing the sky by a uniform unpolarized one of the same irradiance, as
+this table did before, dilutes the window's polarization: at 2 m in Jerlov II the scattered sky
+light inside the window has a flux-weighted DoP of 0.22 from the Rayleigh sky, 0.015 from the
+uniform one.)
 
 Per frame, :meth:`LightFieldTable.frame` interpolates to the frame's sun zenith (linear) and depth
 (linear in the field normalised by E_d, E_d itself log-linear; past the deepest plane the shape is
@@ -46,12 +44,15 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from sensors.polarimeter.rt import reference
-from sensors.polarimeter.sky import SkySpec
+
+if TYPE_CHECKING:
+    from sensors.polarimeter.rt.sky_table import SkyTable
 
 FloatArray = NDArray[np.floating]
 
@@ -69,13 +70,8 @@ WIND_NODES_MPS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0)
 TABLE_INDEX = 1.34
 #: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
 SHIPPED_PHOTONS = 1_500_000
-#: Histories per sky node for the shipped tables (as many as the sun's: with half as many the
-#: bins' noise, ~4 %, showed in the fast path's interpolation).
-SHIPPED_SKY_PHOTONS = 1_500_000
 #: Histories per source for tables computed on first use.
 FIRST_USE_PHOTONS = 200_000
-#: Histories per sky node for sky tables computed on first use.
-FIRST_USE_SKY_PHOTONS = 200_000
 
 #: Bumped whenever the transport changes what a table holds, so that stale caches are not read.
 MODEL_VERSION = 2
@@ -121,152 +117,6 @@ class WaterKey:
     def c_per_m(self) -> float:
         """Beam attenuation c = a + b."""
         return self.a_per_m + self.b_molecular_per_m + self.b_particle_per_m
-
-
-@dataclass(frozen=True, slots=True)
-class SkyKey:
-    """What shapes a sky's light in the water (its scale cancels: tables are per irradiance)."""
-
-    cie_type: int = 12
-    polarization: str = "rayleigh"
-    dop_max: float = 0.75
-    berry_delta_rad: float = round(math.radians(30.0), 9)
-
-    @classmethod
-    def of(cls, sky: SkySpec) -> SkyKey:
-        """From a :class:`sensors.polarimeter.sky.SkySpec`."""
-        return cls(
-            int(sky.cie_type),
-            str(sky.polarization),
-            round(float(sky.dop_max), 9),
-            round(float(sky.berry_delta_rad), 9),
-        )
-
-    def spec(self) -> SkySpec:
-        """A :class:`SkySpec` with this shape (unit zenith radiance, no disc)."""
-        return SkySpec(
-            cie_type=self.cie_type,
-            polarization=self.polarization,  # type: ignore[arg-type]
-            dop_max=self.dop_max,
-            berry_delta_rad=self.berry_delta_rad,
-            zenith_radiance=1.0,
-            sun_relative_radiance=0.0,
-        )
-
-    def digest(self, water: WaterKey) -> str:
-        """A short stable name for the cache (this sky over that water)."""
-        text = (
-            f"{water.digest()},{self.cie_type},{self.polarization},{self.dop_max:.9g},"
-            f"{self.berry_delta_rad:.9g}"
-        )
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-@dataclass(frozen=True)
-class SkyTable:
-    """The scattered light of one sky model over one water, per sun node (module docstring).
-
-    Attributes:
-        water: The water.
-        sky: The sky's shape.
-        field: (S, P, T, n_phi, 3) all scattered sky light (single and multiple), per unit
-            downwelling sky plane irradiance just below the surface.
-        e_down: (S, P) the sky light's downwelling irradiance at the planes (direct included).
-        transmittance: (S,) the flat sea's diffuse transmittance for this sky.
-        photons: Histories per node.
-        field_se: (S, P, T, n_phi) the standard error of the field's radiance.
-    """
-
-    water: WaterKey
-    sky: SkyKey
-    field: FloatArray
-    e_down: FloatArray
-    transmittance: FloatArray
-    photons: int
-    field_se: FloatArray
-
-    @classmethod
-    def build(
-        cls,
-        water: WaterKey,
-        sky: SkyKey,
-        photons: int = FIRST_USE_SKY_PHOTONS,
-        seed: int = 0,
-        workers: int = 1,
-    ) -> SkyTable:
-        """Run the reference with the sky source at every sun node."""
-        grid = reference.Grid(planes=TABLE_PLANES)
-        seeds = np.random.SeedSequence([seed, 1]).spawn(len(SUN_ZENITH_AIR_DEG))
-        args = [
-            (water, "sky", z, grid, photons, int(s.generate_state(1)[0]), sky)
-            for z, s in zip(SUN_ZENITH_AIR_DEG, seeds, strict=True)
-        ]
-        fields = _run(args, workers)
-        return cls(
-            water=water,
-            sky=sky,
-            field=np.stack([f.total for f in fields]).astype(np.float32),
-            e_down=np.stack([f.e_down for f in fields]),
-            transmittance=np.array([f.sky_transmittance for f in fields]),
-            photons=int(photons),
-            field_se=np.stack([f.total_se_all()[..., 0] for f in fields]).astype(np.float16),
-        )
-
-    def arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
-        """The table as named arrays (for ``np.savez``)."""
-        k = self.sky
-        return {
-            f"{prefix}sky_key": np.array(
-                [
-                    k.cie_type,
-                    1.0 if k.polarization == "berry" else 0.0,
-                    k.dop_max,
-                    k.berry_delta_rad,
-                ]
-            ),
-            f"{prefix}field_per_ed": _per(self.field, self.e_down[:, :, None, None, None]),
-            f"{prefix}e_down": self.e_down,
-            f"{prefix}transmittance": self.transmittance,
-            f"{prefix}photons": np.array(self.photons),
-            f"{prefix}field_se_per_ed": _per(self.field_se, self.e_down[:, :, None, None]),
-        }
-
-    @functools.cached_property
-    def smooth(self) -> FloatArray:
-        """:attr:`field` with the rings at the zenith and the nadir made smooth (``_smooth``)."""
-        return _smooth(self.field, self.field.shape[3])
-
-    @classmethod
-    def from_arrays(
-        cls, d: dict[str, np.ndarray] | np.lib.npyio.NpzFile, water: WaterKey, prefix: str = ""
-    ) -> SkyTable:
-        """Inverse of :meth:`arrays`."""
-        k = d[f"{prefix}sky_key"]
-        ed = np.asarray(d[f"{prefix}e_down"], dtype=float)
-        return cls(
-            water=water,
-            sky=SkyKey(
-                int(k[0]),
-                "berry" if k[1] > 0.5 else "rayleigh",
-                round(float(k[2]), 9),
-                round(float(k[3]), 9),
-            ),
-            field=np.nan_to_num(
-                np.asarray(d[f"{prefix}field_per_ed"], dtype=np.float32)
-                * ed[:, :, None, None, None]
-            ),
-            e_down=ed,
-            transmittance=np.asarray(d[f"{prefix}transmittance"], dtype=float),
-            photons=int(d[f"{prefix}photons"]),
-            field_se=(
-                np.nan_to_num(
-                    np.asarray(d[f"{prefix}field_se_per_ed"], dtype=np.float32)
-                    * ed[:, :, None, None]
-                )
-                if f"{prefix}field_se_per_ed" in d
-                else np.full(ed.shape + d[f"{prefix}field_per_ed"].shape[2:4], np.nan, np.float32)
-            ),
-        )
 
 
 @dataclass(frozen=True)
@@ -424,7 +274,8 @@ class LightFieldTable:
             e_sky_plane: Downwelling plane irradiance of the sky just below the surface.
             n_water: This frame's index: the sun zenith is mapped to the table's water by the
                 ratio of the critical angles, so that a grazing sun stays grazing.
-            sky: The sky model's table (:func:`sky_table_for`); None: the uniform unpolarized
+            sky: The sky model's table (:func:`~sensors.polarimeter.rt.sky_table.sky_table_for`);
+                None: the uniform unpolarized
                 sky (a night sky).
         """
         i, f = self._node(sun_zenith_water_rad, n_water)
@@ -614,34 +465,16 @@ def cache_dir() -> Path:
     )
 
 
-#: The prefix of a water's default-sky table in the shipped file.
-SKY_PREFIX = "sky_model/"
-
-
 @functools.lru_cache(maxsize=1)
-def _shipped_all() -> tuple[
-    dict[WaterKey, LightFieldTable], dict[tuple[WaterKey, SkyKey], SkyTable]
-]:
+def _shipped() -> dict[WaterKey, LightFieldTable]:
     if not DATA_FILE.exists():
-        return {}, {}
-    out, skies = {}, {}
+        return {}
+    out = {}
     with np.load(DATA_FILE) as d:
-        names = [str(n) for n in d["names"]]
-        for name in names:
+        for name in (str(n) for n in d["names"]):
             t = LightFieldTable.from_arrays(d, prefix=f"{name}/")
             out[t.key] = t
-            if f"{name}/{SKY_PREFIX}sky_key" in d:
-                st = SkyTable.from_arrays(d, t.key, prefix=f"{name}/{SKY_PREFIX}")
-                skies[(t.key, st.sky)] = st
-    return out, skies
-
-
-def _shipped() -> dict[WaterKey, LightFieldTable]:
-    return _shipped_all()[0]
-
-
-def _shipped_skies() -> dict[tuple[WaterKey, SkyKey], SkyTable]:
-    return _shipped_all()[1]
+    return out
 
 
 def _save(path: Path, arrays: dict[str, np.ndarray]) -> None:
@@ -653,30 +486,6 @@ def _save(path: Path, arrays: dict[str, np.ndarray]) -> None:
         tmp.replace(path)
     except OSError as e:
         print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
-
-
-@functools.lru_cache(maxsize=32)
-def sky_table_for(water: WaterKey, sky: SkyKey) -> SkyTable:
-    """The scattered light of a sky over a water: shipped, cached, or computed now (and cached)."""
-    shipped = _shipped_skies()
-    if (water, sky) in shipped:
-        return shipped[(water, sky)]
-    path = cache_dir() / f"sky-{sky.digest(water)}.npz"
-    if path.exists():
-        with np.load(path) as d:
-            return SkyTable.from_arrays(d, water)
-    print(
-        f"auv-twin: computing the scattered sky light for CIE sky {sky.cie_type} "
-        f"({sky.polarization}, DoP max {sky.dop_max:g}) over water a={water.a_per_m:g}, "
-        f"b_w={water.b_molecular_per_m:g}, b_p={water.b_particle_per_m:g} /m, "
-        f"wind {water.wind_speed_mps:g} m/s "
-        f"({len(SUN_ZENITH_AIR_DEG)} Monte Carlo runs of {FIRST_USE_SKY_PHOTONS} photons; "
-        f"cached in {path.parent})",
-        file=sys.stderr,
-    )
-    t = SkyTable.build(water, sky, FIRST_USE_SKY_PHOTONS, seed=0, workers=1)
-    _save(path, t.arrays())
-    return t
 
 
 @functools.lru_cache(maxsize=32)

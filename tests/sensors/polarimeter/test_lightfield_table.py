@@ -11,6 +11,7 @@ from sensors.polarimeter import stokes as st
 from sensors.polarimeter import surface as sf
 from sensors.polarimeter import water as wa
 from sensors.polarimeter.rt import reference as rf
+from sensors.polarimeter.rt import sky_table as skt
 from sensors.polarimeter.rt import table as tb
 from sensors.polarimeter.sky import SkySpec
 
@@ -25,8 +26,8 @@ def test_shipped_tables_cover_every_jerlov_type_with_small_errors():
         n_t = len(t.theta_edges_deg) - 1
         assert t.sun.shape == (len(tb.SUN_ZENITH_AIR_DEG), len(tb.TABLE_PLANES), n_t, t.n_phi, 3)
         assert t.sky_uniform.shape == (len(tb.TABLE_PLANES), n_t, 3)
-        sky = tb._shipped_skies()[(t.key, tb.SkyKey.of(SkySpec()))]
-        assert sky.field.shape == t.sun.shape and sky.photons == tb.SHIPPED_SKY_PHOTONS
+        sky = skt._shipped_skies()[(t.key, skt.SkyKey.of(SkySpec()))]
+        assert sky.field.shape == t.sun.shape and sky.photons == skt.SHIPPED_SKY_PHOTONS
         assert np.all(np.isfinite(sky.field)) and np.all(sky.field[..., 0] >= 0)
         # A flat sea lets in 85–93 % of a clear sky's light (less with the sun low).
         assert np.all((0.85 < sky.transmittance) & (sky.transmittance < 0.935))
@@ -48,7 +49,7 @@ def test_the_frame_reproduces_the_nodes_and_varies_continuously():
     t = tb.table_for(tb.WaterKey.of(wa.jerlov_water("3C")))
     i, k = 2, 10  # sun 30° from the zenith in air, c z = 3
     th = math.radians(float(t.sun_zenith_water_deg[i]))
-    sky_t = tb.sky_table_for(t.key, tb.SkyKey.of(SkySpec()))
+    sky_t = skt.sky_table_for(t.key, skt.SkyKey.of(SkySpec()))
     sun = t._smooth  # the rings at the zenith and nadir reduced to a smooth field's terms
     np.testing.assert_array_equal(sun[:, :, 1:-1], t.sun[:, :, 1:-1])
     for sky, sky_k in ((None, t.sky_uniform[k][:, None, :]), (sky_t, sky_t.smooth[i, k])):
@@ -139,15 +140,15 @@ def test_a_water_without_a_shipped_table_is_computed_once_and_cached(tmp_path, m
     # Stored as float16 per unit E_d: 3 digits, to ~1e-7 of E_d for the dimmest bins.
     np.testing.assert_allclose(again.sun, t.sun, rtol=2e-3, atol=1e-7)
     # Another sky over it: its scattered light is computed once and cached too.
-    monkeypatch.setattr(tb, "FIRST_USE_SKY_PHOTONS", 2_000)
-    tb.sky_table_for.cache_clear()
-    overcast = tb.SkyKey.of(SkySpec(cie_type=1))
-    sky = tb.sky_table_for(key, overcast)
+    monkeypatch.setattr(skt, "FIRST_USE_SKY_PHOTONS", 2_000)
+    skt.sky_table_for.cache_clear()
+    overcast = skt.SkyKey.of(SkySpec(cie_type=1))
+    sky = skt.sky_table_for(key, overcast)
     assert "computing the scattered sky light" in capsys.readouterr().err
     assert len(list((tmp_path / "lightfield").glob("sky-*.npz"))) == 1
-    tb.sky_table_for.cache_clear()
+    skt.sky_table_for.cache_clear()
     np.testing.assert_allclose(
-        tb.sky_table_for(key, overcast).field, sky.field, rtol=2e-3, atol=1e-7
+        skt.sky_table_for(key, overcast).field, sky.field, rtol=2e-3, atol=1e-7
     )
     assert capsys.readouterr().err == ""
     # A renderer with that water uses it (and finds the light of a more turbid sea).
@@ -157,16 +158,16 @@ def test_a_water_without_a_shipped_table_is_computed_once_and_cached(tmp_path, m
     assert state.field is not None
     assert np.all(np.isfinite(col.scattered(np.array([[0.0, 0.0, 1.0]]), state)))
     tb.table_for.cache_clear()
-    tb.sky_table_for.cache_clear()
+    skt.sky_table_for.cache_clear()
 
 
 def test_a_wavy_sea_interpolates_the_tables_of_the_winds_around_it(tmp_path, monkeypatch):
     """7.5 m/s is half-way between the 5 and 10 m/s seas' tables (computed on first use)."""
     monkeypatch.setenv("AUV_TWIN_CACHE", str(tmp_path))
     monkeypatch.setattr(tb, "FIRST_USE_PHOTONS", 3_000)
-    monkeypatch.setattr(tb, "FIRST_USE_SKY_PHOTONS", 2_000)
+    monkeypatch.setattr(skt, "FIRST_USE_SKY_PHOTONS", 2_000)
     tb.table_for.cache_clear()
-    tb.sky_table_for.cache_clear()
+    skt.sky_table_for.cache_clear()
     water = wa.jerlov_water("3C")
     beam = sf.refract_sun_beam(np.array([0.0, 0.6, 0.8]), N)
     args = (4.0, beam.look_dir, beam.irradiance_factor, beam.dop, 1.0, 0.3)
@@ -183,7 +184,7 @@ def test_a_wavy_sea_interpolates_the_tables_of_the_winds_around_it(tmp_path, mon
     with pytest.raises(ValueError, match="wind_speed_mps"):
         tb.wind_nodes(31.0)
     tb.table_for.cache_clear()
-    tb.sky_table_for.cache_clear()
+    skt.sky_table_for.cache_clear()
 
 
 def test_an_unwritable_cache_costs_time_not_correctness(tmp_path, monkeypatch, capsys):
