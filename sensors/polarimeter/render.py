@@ -567,7 +567,8 @@ class Polarimeter(Sensor):
         the sensor's fixed pattern drawn from ``rng`` on first use (then kept), temporal noise
         from ``rng``. A wavy sea (``OpticsConfig.wind_speed_mps`` > 0) is drawn from ``rng`` on
         first use too and evolves with ``t``: frames at increasing ``t`` see the same
-        time-correlated waves a run would (the camera at the surface's origin).
+        time-correlated waves a run would (the camera at the surface's origin); a ``t`` earlier
+        than the last frame's does not rewind it (the frame sees the sea as it is).
 
         Args:
             c_cn: C_c^n, camera → ENU (3×3 rotation).
