@@ -198,8 +198,8 @@ def sky_light(photons: int) -> list[dict]:
             rows.append({
                 "water": name, "sun_zenith_air_deg": za, "tau_c": float(pol.grid.planes[k]),
                 "depth_m": float(pol.depths_m()[k]), "dop_sky_model": d_p, "dop_uniform": d_u,
-                "window_flux_ratio": l_p / l_u, "t_sky_model": pol.sky_transmittance,
-                "t_uniform": uni.sky_transmittance,
+                "window_flux_ratio": l_p / l_u, "t_sky_model": pol.surface_transmittance,
+                "t_uniform": uni.surface_transmittance,
             })  # fmt: skip
     return rows
 

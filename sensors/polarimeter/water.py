@@ -437,20 +437,17 @@ class WaterColumn:
         field = None
         if multiple and w.b_per_m > 0 and (e_sun_plane > 0 or e_sky_plane > 0):
             th = math.acos(min(mu_s, 1.0))
-            tables = [(rt_table.table_for(k), wt, k) for k, wt in self._nodes]
-            skies: list[rt_sky.SkyTable | None] = [None] * len(tables)
-            if not night and e_sky_plane > 0:
-                skies = [rt_sky.sky_table_for(k, self.sky_key) for _, _, k in tables]
-                # This sky's own transmittance (its light is not uniform over the sky).
-                e_sky_plane = float(e_sky_air) * sum(
-                    wt * t.sky_transmittance(sk, th, self.n)
-                    for (t, wt, _), sk in zip(tables, skies, strict=True)
-                    if sk is not None
-                )
-            parts = [
-                (wt, t.frame(th, w.c_per_m * z, e_sun_plane, e_sky_plane, self.n, sk))
-                for (t, wt, _), sk in zip(tables, skies, strict=True)
-            ]
+            # Each wind node's light with that sea's own sky transmittance (the sky model's light
+            # is not uniform over the sky, and waves change how much of it enters), then blended.
+            parts, e_sky_nodes = [], []
+            for k, wt in self._nodes:
+                table, sky, e_sky = rt_table.table_for(k), None, e_sky_plane
+                if not night and e_sky_plane > 0:
+                    sky = rt_sky.sky_table_for(k, self.sky_key)
+                    e_sky = float(e_sky_air) * table.sky_transmittance(sky, th, self.n)
+                parts.append((wt, table.frame(th, w.c_per_m * z, e_sun_plane, e_sky, self.n, sky)))
+                e_sky_nodes.append(wt * e_sky)
+            e_sky_plane = sum(e_sky_nodes)
             field = parts[0][1] if len(parts) == 1 else rt_table.blend(parts)
         return ColumnState(
             depth_m=z,

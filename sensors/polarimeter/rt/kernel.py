@@ -419,40 +419,41 @@ def transport(
     n_cols = max(n_cells // max(n_rows, 1), 1)
     for _ in range(n_photons):
         # ---- start just below the surface -----------------------------------------------------
-        if source == 0:
-            st = math.sin(sun_theta)
-            ct = math.cos(sun_theta)
-            phi0 = 0.0
-            w0 = 1.0
-            q0 = beam_q
-            u0 = 0.0
+        if slope_sigma <= 0.0:
+            # A flat sea: straight from the transmitted source.
+            if source == 0:
+                st = math.sin(sun_theta)
+                ct = math.cos(sun_theta)
+                phi0 = 0.0
+                w0 = 1.0
+                q0 = beam_q
+                u0 = 0.0
+            else:
+                lo, s2, phi0 = _draw_sky(sky_cdf, sky_s2_edges, n_cols)
+                st = math.sqrt(max(s2, 0.0)) / n_water  # Snell: sin θ_w = sin θ_a / n
+                ct = math.sqrt(max(1.0 - st * st, 0.0))
+                w0 = 1.0
+                q0 = sky_qu[lo, 0]
+                u0 = sky_qu[lo, 1]
+            # Travelling down, away from the source at azimuth phi0.
+            cp = math.cos(phi0)
+            sp = math.sin(phi0)
+            dx = -st * cp
+            dy = -st * sp
+            dz = -ct
+            # Reference: the meridian (⟂ d, in the vertical plane, towards +z).
+            rx = -ct * cp
+            ry = -ct * sp
+            rz = st
+            if st < 1e-12:
+                rx, ry, rz = 0.0, 1.0, 0.0
+                # a vertical beam: Q is relative to North; unpolarized by symmetry anyway
+            si = w0
+            sq = w0 * q0
+            su = w0 * u0
+            sv = 0.0
         else:
-            lo, s2, phi0 = _draw_sky(sky_cdf, sky_s2_edges, n_cols)
-            st = math.sqrt(max(s2, 0.0)) / n_water  # Snell: sin θ_w = sin θ_a / n
-            ct = math.sqrt(max(1.0 - st * st, 0.0))
-            w0 = 1.0
-            q0 = sky_qu[lo, 0]
-            u0 = sky_qu[lo, 1]
-        # Travelling down, away from the source at azimuth phi0.
-        cp = math.cos(phi0)
-        sp = math.sin(phi0)
-        dx = -st * cp
-        dy = -st * sp
-        dz = -ct
-        # Reference: the meridian (⟂ d, in the vertical plane, towards +z).
-        rx = -ct * cp
-        ry = -ct * sp
-        rz = st
-        if st < 1e-12:
-            rx, ry, rz = 0.0, 1.0, 0.0
-            # a vertical beam: Q is relative to North; unpolarized by symmetry anyway
-        si = w0
-        sq = w0 * q0
-        su = w0 * u0
-        sv = 0.0
-        if slope_sigma > 0.0:
-            # A rough sea: the light in air, through the facet it meets (its direction and
-            # Stokes replace the flat sea's above).
+            # A rough sea: the light in air, through the facet it meets.
             if source == 0:
                 sa = math.sin(sun_theta_air)
                 ca = math.cos(sun_theta_air)

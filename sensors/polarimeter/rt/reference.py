@@ -120,8 +120,6 @@ class LightField:
         source: "sun" or "sky".
         sun_zenith_water_deg: In-water zenith of the refracted sun (for the sky: of the sun the
             sky model was evaluated for).
-        sky_transmittance: The flat sea's diffuse transmittance for the sky source (``source``
-            "sky"; for "sun", that of a uniform unpolarized sky).
         single: (P, T, n_phi, 3) once-scattered, never-reflected Stokes radiance per bin.
         multiple: (P, T, n_phi, 3) all other scattered light (a surface reflection included).
         single_se, multiple_se: Their standard errors (batch means).
@@ -144,7 +142,6 @@ class LightField:
     grid: Grid
     source: str
     sun_zenith_water_deg: float
-    sky_transmittance: float
     single: FloatArray
     multiple: FloatArray
     single_se: FloatArray
@@ -350,11 +347,9 @@ def solve(
     edges_cos[0], edges_cos[-1] = 1.0, -1.0
     n_t, n_p = len(g.theta_edges_deg) - 1, g.n_phi
     sky_src = sky_source(sky if source == "sky" else None, sun_zenith_air_deg, n_water)
-    if source == "sun":
-        theta_w = math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
-        beam_q = beam_polarization(math.radians(sun_zenith_air_deg), n_water)
-    else:
-        theta_w, beam_q = 0.0, 0.0
+    # The refracted sun (the sky source ignores it but is labelled with it).
+    theta_w = math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
+    beam_q = beam_polarization(math.radians(sun_zenith_air_deg), n_water) if source == "sun" else 0
     slope_sigma = math.sqrt(0.5 * sum(cox_munk_variances(wind_speed_mps)))
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     seeds = rng.integers(0, 2**31 - 1, size=batches)
@@ -399,12 +394,7 @@ def solve(
     return LightField(
         grid=g,
         source=source,
-        sun_zenith_water_deg=math.degrees(
-            theta_w
-            if source == "sun"
-            else math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
-        ),
-        sky_transmittance=sky_src.transmittance,
+        sun_zenith_water_deg=math.degrees(theta_w),
         single=rm[0],
         multiple=rm[1],
         single_se=rse[0],

@@ -99,7 +99,8 @@ class SkyTable:
         field: (S, P, T, n_phi, 3) all scattered sky light (single and multiple), per unit
             downwelling sky plane irradiance just below the surface.
         e_down: (S, P) the sky light's downwelling irradiance at the planes (direct included).
-        transmittance: (S,) the flat sea's diffuse transmittance for this sky.
+        transmittance: (S,) the sea's diffuse transmittance for this sky (flat: Fresnel over the
+            sky's cells; wavy: the photons' mean facet transmittance).
         photons: Histories per node.
         field_se: (S, P, T, n_phi) the standard error of the field's radiance.
     """
@@ -134,7 +135,7 @@ class SkyTable:
             sky=sky,
             field=np.stack([f.total for f in fields]).astype(np.float32),
             e_down=np.stack([f.e_down for f in fields]),
-            transmittance=np.array([f.sky_transmittance for f in fields]),
+            transmittance=np.array([f.surface_transmittance for f in fields]),
             photons=int(photons),
             field_se=np.stack([f.total_se_all()[..., 0] for f in fields]).astype(np.float16),
         )
