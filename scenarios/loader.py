@@ -25,9 +25,12 @@ from typing import Any, TypeVar
 
 from scenarios.schema import (
     ATTITUDE_SOURCES,
+    CALIBRATION_MODELS,
     CURRENT_KINDS,
+    HARDWARE_SIGMAS,
     JERLOV_TYPES,
     MISSION_KINDS,
+    MOUNTING_MODELS,
     NAV_TUNINGS,
     NAV_VARIANTS,
     SCENES,
@@ -39,6 +42,7 @@ from scenarios.schema import (
     TANK_WIDTH_M,
     Autopilot,
     Current,
+    Hardware,
     HeadingLeg,
     Initial,
     LawnmowerMission,
@@ -205,6 +209,15 @@ BEAUFORT_MPS: tuple[float, ...] = (
 )  # fmt: skip
 BEAUFORT_FORCE = Range(0.0, 11.0)
 WAVELENGTH_NM = Range(400.0, 700.0)
+# [hardware] σ bounds: far beyond any real unit, short of values that break the geometry (a
+# focal length off by 20 %, a camera turned by 10°).
+HARDWARE_RANGES: dict[str, Range] = {
+    "focal_sigma_rel": Range(0.0, 0.2),
+    "principal_point_sigma_px": Range(0.0, 200.0),
+    "polarizer_sigma_deg": Range(0.0, 10.0),
+    "boresight_sigma_deg": Range(0.0, 10.0),
+    "clock_offset_sigma_ms": Range(0.0, 1000.0),
+}
 GATE_PROBABILITY = Range(0.5, 1.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
 TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
@@ -992,6 +1005,36 @@ def _recording(t: _Table | None) -> Recording | None:
     return recording
 
 
+def _hardware(t: _Table | None) -> Hardware | None:
+    if t is None:
+        return None
+    defaults = Hardware()
+    values: dict[str, Any] = {}
+    choices = {"calibration": CALIBRATION_MODELS, "mounting": MOUNTING_MODELS}
+    for model, sigmas in HARDWARE_SIGMAS.items():
+        kind = t.string(model, choices=choices[model], default=getattr(defaults, model))
+        values[model] = kind
+        for key in sigmas:
+            if kind == "ideal" and key in t.data:
+                t.known.append(key)
+                t.report.add(
+                    t.at(key),
+                    f"is set while hardware.{model} = 'ideal'; an ideal model has no error "
+                    f"(use {model} = {_show(choices[model][0])} for a σ)",
+                )
+                values[key] = None
+                continue
+            values[key] = t.number(key, HARDWARE_RANGES[key], default=getattr(defaults, key))
+    hardware = _build(Hardware, **values)
+    t.finish()
+    if hardware is not None:
+        # An ideal model's σ are 0: nothing is drawn for it downstream.
+        for model, sigmas in HARDWARE_SIGMAS.items():
+            if getattr(hardware, model) == "ideal":
+                hardware = dataclasses.replace(hardware, **dict.fromkeys(sigmas, 0.0))
+    return hardware
+
+
 # ---- cross-field rules -------------------------------------------------------------------------
 
 
@@ -1159,6 +1202,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     autopilot = _autopilot(top.table("autopilot"))
     recording = _recording(top.table("recording"))
     navigation = _navigation(top.table("navigation"))
+    hardware = _hardware(top.table("hardware"))
     top.finish()
     _cross_checks(report, scene)
     _navigation_checks(report, navigation, sensors, autopilot)
@@ -1183,6 +1227,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         autopilot=autopilot,
         recording=recording,
         navigation=navigation,
+        hardware=hardware,
     )
     # Every None above was reported; reaching here without a scenario is a bug in this module.
     assert scenario is not None, "unreported validation failure"

@@ -236,6 +236,43 @@ class Optics:
     wavelength_nm: float = 500.0
 
 
+CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")
+MOUNTING_MODELS: tuple[str, ...] = ("bracket", "ideal")
+
+
+@dataclass(frozen=True, slots=True)
+class Hardware:
+    """The polarimeter unit's error budget (``sensors.polarimeter.hardware``), drawn per run.
+
+    Each model is ``"ideal"`` or its real form, whose σ default to the sourced values of
+    ``sensors.polarimeter.hardware`` (tests/sensors/polarimeter/test_hardware.py keeps the two
+    in step). A σ may be set only for a model that is not ideal.
+
+    Attributes:
+        calibration: ``"checkerboard"``: the onboard calibration is off the true camera by the
+            σ below; ``"ideal"``: the vehicle knows its camera exactly.
+        focal_sigma_rel: Relative 1σ of the onboard focal length.
+        principal_point_sigma_px: 1σ of each principal-point coordinate (full-resolution px).
+        polarizer_sigma_deg: 1σ of a common turn of the analyser layout (deg).
+        mounting: ``"bracket"``: the camera is turned from the IMU by an unknown boresight and
+            stamps its frames off the IMU's clock; ``"ideal"``: neither.
+        boresight_sigma_deg: 1σ of each boresight rotation component (deg).
+        clock_offset_sigma_ms: 1σ of the camera's clock offset (ms).
+    """
+
+    calibration: str = "checkerboard"
+    focal_sigma_rel: float = 0.003
+    principal_point_sigma_px: float = 2.0
+    polarizer_sigma_deg: float = 0.21
+    mounting: str = "bracket"
+    boresight_sigma_deg: float = 0.19
+    clock_offset_sigma_ms: float = 5.0
+
+    @classmethod
+    def ideal(cls) -> Hardware:
+        return cls(calibration="ideal", mounting="ideal")
+
+
 #: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
 #: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
 #: aids the filter (POL/INS, LIG/INS, ...).
@@ -334,6 +371,7 @@ class Scenario:
     autopilot: Autopilot = field(default_factory=Autopilot)
     recording: Recording = field(default_factory=Recording)
     navigation: Navigation = field(default_factory=Navigation)
+    hardware: Hardware = field(default_factory=Hardware)
 
     def utc_at(self, t_s: float) -> datetime:
         """The UTC instant of simulation time ``t_s`` (seconds since the start)."""
@@ -392,6 +430,7 @@ class Scenario:
             "autopilot": _plain(self.autopilot),
             "recording": _plain(self.recording),
             "navigation": {k: v for k, v in _plain(self.navigation).items() if v is not None},
+            "hardware": _hardware_dict(self.hardware),
         }
         if self.water.seabed_depth_m is None:
             del out["water"]["seabed_depth_m"]
@@ -416,6 +455,23 @@ def _current_dict(c: Current) -> dict[str, Any]:
         "gauss_markov": ("speed_mps", "toward_deg", "sigma_mps", "tau_s"),
     }[c.kind]
     return {"kind": c.kind, **{k: _plain(getattr(c, k)) for k in keys}}
+
+
+#: [hardware]: each model's σ keys (set only when the model is not ideal).
+HARDWARE_SIGMAS: dict[str, tuple[str, ...]] = {
+    "calibration": ("focal_sigma_rel", "principal_point_sigma_px", "polarizer_sigma_deg"),
+    "mounting": ("boresight_sigma_deg", "clock_offset_sigma_ms"),
+}
+
+
+def _hardware_dict(h: Hardware) -> dict[str, Any]:
+    # Only the σ of real models: the loader rejects a σ given for an ideal one.
+    out: dict[str, Any] = {}
+    for model, sigmas in HARDWARE_SIGMAS.items():
+        out[model] = getattr(h, model)
+        if out[model] != "ideal":
+            out.update({k: getattr(h, k) for k in sigmas})
+    return out
 
 
 def _mission_dict(m: Mission) -> dict[str, Any]:

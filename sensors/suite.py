@@ -73,7 +73,10 @@ class SensorSuite:
         for i, sensor in enumerate(self.sensors):
             if next_t[i] <= t + _EPS_S:
                 values = sensor.sample(world, self._rngs[i])
-                reading = Reading(sensor.name, t, t + sensor.delay_s, values)
+                # A sensor whose clock is off the IMU's (a drawn polarimeter unit) stamps its
+                # reading with its own time; delivery stays on the physics clock.
+                stamp = t + getattr(sensor, "clock_offset_s", 0.0)
+                reading = Reading(sensor.name, stamp, t + sensor.delay_s, values)
                 truth = getattr(sensor, "truth", None)
                 heapq.heappush(
                     self._pending, (reading.t_delivered, next(self._counter), reading, truth)

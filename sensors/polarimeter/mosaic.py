@@ -22,13 +22,16 @@ Input contract (``stokes``, shape (H, W, 3), float32 preferred):
 
 Measurement model (optics.md §3.2–3.3), per pixel p with analyser angle α_p from the layout:
 
-    λ_p = t · η · g_p · ½ [S0 + d (S1 cos 2α'_p + S2 sin 2α'_p)]  (+ crosstalk)  + t · i_dark(T)
-    e_p ~ Poisson(λ_p) + N(0, σ_read²) + DSNU_p
+    λ_p = t · η · g_p · ½ [S0 + d (S1 cos 2α'_p + S2 sin 2α'_p)]  (+ crosstalk)  + t · i_dark,p(T)
+    e_p ~ Poisson(λ_p) + N(0, σ_read²) + DSNU_p + r_row(p)
     DN_p = clip(round(e_p / K + black level), 0, min(2^bits − 1, FW / K + black level))
 
 * ``d = (ER − 1)/(ER + 1)``: diattenuation from the extinction ratio ER (ER = ∞ ⇒ d = 1).
 * ``α'_p = α_p + ε_p``: per-pixel orientation error ε ~ N(0, σ_ε²), a manufacturing fixed pattern.
 * ``g_p = 1 + PRNU_p``, PRNU ~ N(0, σ_PRNU²); DSNU_p ~ N(0, σ_DSNU²) e⁻: fixed patterns.
+* ``i_dark,p``: the mean dark current, or a hot pixel's (a fraction ``hot_pixel_fraction`` of
+  the pixels, a fixed pattern), both doubling every ``dark_current_doubling_k``.
+* ``r_row ~ N(0, σ_row²)``: a temporal offset shared by every pixel of a row, drawn per frame.
 * η (``quantum_efficiency``): electrons per photon along the analyser's transmission axis,
   polarizer transmittance and fill factor included. An unpolarised beam of S0 photons/s gives
   η·S0/2 e⁻/s, so an EMVA 1288 QE measured with unpolarised light is η/2.
@@ -79,6 +82,7 @@ current doubling temperature.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -143,6 +147,11 @@ class PolarizationSensorSpec:
         crosstalk: c, fraction of each of the 4 edge neighbours' light a pixel receives, [0, 0.25).
         prnu: σ of the photo-response non-uniformity (fraction of the signal), fixed per pixel.
         dsnu_e: σ of the dark-signal non-uniformity (e⁻), a fixed per-pixel offset.
+        hot_pixel_fraction: Fraction of pixels that are hot (a fixed pattern, drawn per sensor).
+        hot_pixel_dark_e_per_s: Dark current of a hot pixel (e⁻/s) at
+            ``dark_current_ref_temp_c``; it doubles with temperature like the mean's.
+        row_noise_e: σ of a temporal offset common to each row of a frame (e⁻), the row noise of
+            a column-parallel CMOS readout.
         black_level_dn: Offset (DN) added before quantization so dark noise is not clipped.
         adc_bits: ADC resolution (bits), 8–16; raw values are in [0, 2^bits − 1].
         shot_noise: Draw photon (and dark-current) shot noise; False only for the ideal camera.
@@ -168,6 +177,9 @@ class PolarizationSensorSpec:
     crosstalk: float = 0.005
     prnu: float = 0.01
     dsnu_e: float = 1.0
+    hot_pixel_fraction: float = 0.0
+    hot_pixel_dark_e_per_s: float = 5000.0
+    row_noise_e: float = 0.0
     black_level_dn: float = 240.0
     adc_bits: int = 12
     shot_noise: bool = True
@@ -197,8 +209,17 @@ class PolarizationSensorSpec:
     @property
     def dark_current_at_temp_e_per_s(self) -> float:
         """Dark current at ``sensor_temp_c``: doubles every ``dark_current_doubling_k`` K."""
+        return self.dark_current_e_per_s * self._temperature_factor
+
+    @property
+    def hot_pixel_dark_at_temp_e_per_s(self) -> float:
+        """A hot pixel's dark current at ``sensor_temp_c`` (same doubling)."""
+        return self.hot_pixel_dark_e_per_s * self._temperature_factor
+
+    @property
+    def _temperature_factor(self) -> float:
         dt = self.sensor_temp_c - self.dark_current_ref_temp_c
-        return self.dark_current_e_per_s * 2.0 ** (dt / self.dark_current_doubling_k)
+        return 2.0 ** (dt / self.dark_current_doubling_k)
 
     def validate(self) -> None:
         """Raise ValueError naming the field, its value and the allowed range if impossible."""
@@ -231,6 +252,9 @@ class PolarizationSensorSpec:
             ("crosstalk", 0.0, 0.25, False, True),
             ("prnu", 0.0, 0.5, False, False),
             ("dsnu_e", 0.0, inf, False, True),
+            ("hot_pixel_fraction", 0.0, 0.1, False, False),
+            ("hot_pixel_dark_e_per_s", 0.0, inf, False, True),
+            ("row_noise_e", 0.0, inf, False, True),
         ):
             _finite(name, getattr(self, name), lo, hi, lo_open, hi_open)
         if self.min_exposure_us > self.max_exposure_us:
@@ -255,8 +279,14 @@ def _imx250mzr() -> PolarizationSensorSpec:
     # η = 0.5 (xin2024: "QE ≈ 50 % at 530 nm"; whether that includes the polarizer is not said
     # [uncertain]). ER 250 (xin2024: 100–425 over 400–680 nm; optics.md: O(100–300)) [uncertain].
     # Orientation error 0.5°, crosstalk 0.5 %, PRNU 1 %, DSNU 1 e⁻, dark current 5 e⁻/s at 25 °C
-    # doubling every 7 K: typical Pregius-class values [uncertain].
-    return PolarizationSensorSpec()
+    # doubling every 7 K: typical Pregius-class values [uncertain]. Defects: 1 pixel in 10⁴ hot
+    # at 1000× the mean dark current, and a temporal row noise of 0.5 e⁻ (≈ 1/6 of the dark
+    # noise; EMVA 1288 R4.0 reports row/column noise as its own spatial-variance term) — typical
+    # of global-shutter CMOS, not measured on this sensor [uncertain]. Cameras can map hot pixels
+    # out (LUCID's "defect pixel correction"); the twin leaves them in, the worst case.
+    return PolarizationSensorSpec(
+        hot_pixel_fraction=1e-4, hot_pixel_dark_e_per_s=5000.0, row_noise_e=0.5
+    )
 
 
 PRESETS: Mapping[str, PolarizationSensorSpec] = MappingProxyType(
@@ -264,10 +294,10 @@ PRESETS: Mapping[str, PolarizationSensorSpec] = MappingProxyType(
         # The bare Sony sensor, fixed 1 ms exposure (an arbitrary default).
         "imx250mzr": _imx250mzr(),
         # Lucid Phoenix PHX050S-P (IMX250MZR) of the LIG paper: 700 µs fixed (hu2024 §4.3).
-        "phx050s_p": PolarizationSensorSpec(exposure_us=700.0),
+        "phx050s_p": dataclasses.replace(_imx250mzr(), exposure_us=700.0),
         # IMX264MZR (ROI-A paper): same 3.45 µm Pregius pixel, so the IMX250MZR figures are
         # assumed [uncertain]; auto exposure (fang2024 §2.1).
-        "imx264mzr": PolarizationSensorSpec(auto_exposure=True),
+        "imx264mzr": dataclasses.replace(_imx250mzr(), auto_exposure=True),
         # Ideal: η = 1, perfect analysers (d = 1), no orientation error, crosstalk, PRNU, DSNU,
         # dark current, read or shot noise, black level 0, K = 1 e⁻/DN, 16-bit ADC, full well
         # 65535 e⁻. render_mosaic returns round(t·½[S0 + S1 cos 2α + S2 sin 2α]) clipped to
@@ -340,6 +370,7 @@ class _FixedPattern:
     gain: NDArray[np.float32]
     dsnu_e: NDArray[np.float32] | None
     analysis: NDArray[np.float32] = field(repr=False)  # (H, W, 3): e⁻/s per photon/s of S
+    hot: NDArray[np.intp] = field(repr=False, default_factory=lambda: np.zeros(0, np.intp))
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -423,6 +454,10 @@ class DoFPSensor:
         if s.prnu > 0:
             gain = np.maximum(rng.normal(1.0, s.prnu, (h, w)), 0.0).astype(np.float32)
         dsnu = rng.normal(0.0, s.dsnu_e, (h, w)).astype(np.float32) if s.dsnu_e > 0 else None
+        hot = np.zeros(0, np.intp)
+        if s.hot_pixel_fraction > 0:  # drawn last: the patterns above do not depend on it
+            n_hot = int(rng.binomial(h * w, s.hot_pixel_fraction))
+            hot = np.sort(rng.choice(h * w, size=n_hot, replace=False)).astype(np.intp)
 
         nominal = np.tile(np.deg2rad(np.asarray(s.layout_deg, np.float64)), (h // 2, w // 2))
         two_a = 2.0 * (nominal + eps)
@@ -442,6 +477,7 @@ class DoFPSensor:
             gain=_read_only(gain),
             dsnu_e=None if dsnu is None else _read_only(dsnu),
             analysis=_read_only(np.ascontiguousarray(analysis, dtype=np.float32)),
+            hot=_read_only(hot),
         )
 
     # --- helpers --------------------------------------------------------------------------------
@@ -471,6 +507,16 @@ class DoFPSensor:
         prod = cv2.multiply(stokes[r0:r1], self._fp.analysis[r0:r1])
         m = np.array([[t_s, t_s, t_s, dark_e]], np.float32)
         lam = cv2.transform(prod, m).reshape(r1 - r0, self._shape[1])
+        hot = self._fp.hot
+        if hot.size:
+            w = self._shape[1]
+            a, b = np.searchsorted(hot, (r0 * w, r1 * w))
+            if b > a:
+                extra = (
+                    self._spec.hot_pixel_dark_at_temp_e_per_s
+                    - self._spec.dark_current_at_temp_e_per_s
+                ) * t_s
+                lam.ravel()[hot[a:b] - r0 * w] += np.float32(max(extra, 0.0))
         return np.maximum(lam, np.float32(0.0), out=lam)
 
     # --- frames ---------------------------------------------------------------------------------
@@ -530,7 +576,7 @@ class DoFPSensor:
         inv_k = 1.0 / s.conversion_gain_e_per_dn
         sat = s.saturation_dn
         exact_lo = np.nextafter(np.float32(dark_e), np.float32(np.inf))
-        noisy = s.shot_noise or s.read_noise_e > 0
+        noisy = s.shot_noise or s.read_noise_e > 0 or s.row_noise_e > 0
         bands = self._bands()
         seeds = rng.integers(0, 2**31 - 1, size=len(bands)) if noisy else None
         out = np.empty((h, w), np.uint16)
@@ -559,6 +605,10 @@ class DoFPSensor:
                     lam += np.float32(s.read_noise_e) * z
                 if exact is not None:
                     lam.ravel()[exact] = counts + np.float32(s.read_noise_e) * z.ravel()[exact]
+                if s.row_noise_e > 0:  # drawn after z: the pixel noise does not depend on it
+                    rows = np.empty((r1 - r0, 1), np.float32)
+                    cv2.randn(rows, 0.0, float(s.row_noise_e))
+                    lam += rows
             band_out = out[r0:r1]
             if self._fp.dsnu_e is None:
                 cv2.addWeighted(lam, inv_k, lam, 0.0, s.black_level_dn, band_out, cv2.CV_16U)

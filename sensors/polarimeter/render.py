@@ -57,6 +57,7 @@ from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
 from sensors.polarimeter.calibration import calibration_from_spec
+from sensors.polarimeter.hardware import HardwareErrors, HardwareUnit
 from sensors.polarimeter.sky import SkySpec, sky_radiance
 from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
 from sensors.registry import register
@@ -465,6 +466,11 @@ class Polarimeter(Sensor):
         self._last_t: float | None = None
         self.truth: PolarimeterTruth | None = None
         self._calibration: CameraCalibration | None = None
+        # The unit's error budget (world side: sensors/polarimeter/hardware.py) and its draw.
+        # Ideal by default, so offline studies see the exact camera unless they ask otherwise;
+        # scenarios configure their [hardware] budget (twin/world/assembly.py).
+        self.hardware = HardwareErrors.ideal()
+        self.unit: HardwareUnit | None = None
         self._plans: dict[tuple[float, int], _FastPlan] = {}
         self._configure_derived()
 
@@ -503,11 +509,49 @@ class Polarimeter(Sensor):
         self._psf_sigma = (0.6 * np.sqrt(np.maximum(sa, 0.0)) * self.n_water).astype(np.float32)
         self._psf_sigma_air = (0.6 * np.sqrt(np.maximum(sa, 0.0))).astype(np.float32)
 
-    def calibration(self) -> CameraCalibration:
-        """The onboard camera calibration (what the vehicle knows of this camera), built once."""
+    def configure_hardware(self, errors: HardwareErrors) -> None:
+        """Set the unit's error budget; :meth:`reset` or :meth:`draw_unit` draws the unit."""
+        if not isinstance(errors, HardwareErrors):
+            raise TypeError(f"configure_hardware needs HardwareErrors, got {type(errors).__name__}")
+        self.hardware = errors
+        self.unit = None
+
+    def draw_unit(self, rng: np.random.Generator) -> HardwareUnit:
+        """Draw this run's unit (calibration, boresight, clock offset) from ``rng``."""
+        self.unit = self.hardware.draw(self.true_calibration(), self.camera.spec.binning, rng)
+        return self.unit
+
+    def true_calibration(self) -> CameraCalibration:
+        """The exact calibration of the world's camera (truth; built once)."""
         if self._calibration is None:
             self._calibration = calibration_from_spec(self.camera.spec, self.pspec.sensor_spec())
         return self._calibration
+
+    def calibration(self) -> CameraCalibration:
+        """The onboard camera calibration: what the vehicle knows of this camera.
+
+        The exact one when the hardware budget is ideal; otherwise the drawn unit's.
+
+        Raises:
+            RuntimeError: The budget is not ideal and no unit has been drawn yet.
+        """
+        if self.hardware.calibration.is_ideal:
+            return self.true_calibration()
+        if self.unit is None:
+            raise RuntimeError(
+                "Polarimeter.calibration: this unit's calibration error is drawn per run; call "
+                "reset(), draw_unit(rng) or render_offline() first"
+            )
+        return self.unit.calibration
+
+    @property
+    def clock_offset_s(self) -> float:
+        """Offset of this unit's time stamps from the IMU clock (s), read by the sensor suite."""
+        return 0.0 if self.unit is None else self.unit.clock_offset_s
+
+    def _true_attitude(self, c_cn: NDArray[np.float64]) -> NDArray[np.float64]:
+        """C_c^n of the true camera from the nominal mount's (the unit's boresight)."""
+        return c_cn if self.unit is None else c_cn @ self.unit.boresight
 
     # ---- Sensor API ----------------------------------------------------------------------------
     def channel_specs(self) -> dict[str, dm_env.specs.Array]:
@@ -519,10 +563,13 @@ class Polarimeter(Sensor):
 
     def reset(self, world: WorldView, rng: np.random.Generator) -> None:
         """Draw the sensor's fixed pattern and the sea surface from this sensor's stream."""
-        seeds = rng.spawn(2)
+        # The third stream (the unit's errors) is used only by a non-ideal budget, so an ideal
+        # unit's fixed pattern and sea are what they were before the budget existed.
+        seeds = rng.spawn(3)
         self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, seeds[0])
         sea = self._sea()
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
+        self.unit = None if self.hardware.is_ideal else self.draw_unit(seeds[2])
         self._last_t = None
         self.truth = None
 
@@ -543,7 +590,7 @@ class Polarimeter(Sensor):
             self.reset(world, rng)
         assert self._dofp is not None
         pos, c_cn = world.site_pose(self.site)
-        c_cn = np.asarray(c_cn, dtype=np.float64)
+        c_cn = self._true_attitude(np.asarray(c_cn, dtype=np.float64))
         depth = float(world.surface_z_m - pos[2])
         sun = self._sun_for(world)
         if self._waves is not None and self._last_t is not None:
@@ -564,14 +611,16 @@ class Polarimeter(Sensor):
         """One raw frame for a camera attitude, depth and sun, without a MuJoCo world.
 
         For studies with known truth (compass accuracy tables, benchmarks, tests): no occlusion,
-        the sensor's fixed pattern drawn from ``rng`` on first use (then kept), temporal noise
-        from ``rng``. A wavy sea (``OpticsConfig.wind_speed_mps`` > 0) is drawn from ``rng`` on
+        the sensor's fixed pattern and the unit of a non-ideal hardware budget
+        (:meth:`draw_unit`) drawn from ``rng`` on first use (then kept), temporal noise from
+        ``rng``. A wavy sea (``OpticsConfig.wind_speed_mps`` > 0) is drawn from ``rng`` on
         first use too and evolves with ``t``: frames at increasing ``t`` see the same
         time-correlated waves a run would (the camera at the surface's origin); a ``t`` earlier
         than the last frame's does not rewind it (the frame sees the sea as it is).
 
         Args:
-            c_cn: C_c^n, camera → ENU (3×3 rotation).
+            c_cn: C_c^n, camera → ENU (3×3 rotation), of the nominal mount: a drawn unit's
+                boresight turns it to the true camera's.
             depth_m: Camera depth (≤ 0: in air).
             sun: A :class:`~sensors.polarimeter.sun.SunPosition` or an ENU unit vector.
             rng: Generator.
@@ -589,6 +638,9 @@ class Polarimeter(Sensor):
             raise ValueError(f"t: {t!r}; allowed: a finite time in s")
         if self._dofp is None:
             self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng)
+        if self.unit is None and not self.hardware.is_ideal:
+            self.draw_unit(rng.spawn(1)[0])
+        c = self._true_attitude(c)
         self._offline_waves(float(t), rng)
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):

@@ -18,9 +18,12 @@ class Reading:
 
     Attributes:
         sensor: The sensor's name (unique in a run, e.g. ``"imu"``).
-        t: Sim time in seconds at which the measurement is valid (the sampling instant).
+        t: The reading's time stamp (s): the sampling instant on the sensor's own clock, which
+            is the sim clock except for a sensor with a clock offset (a drawn polarimeter unit,
+            ``sensors.polarimeter.hardware``); the truth a reading carries keeps the true
+            instant.
         t_delivered: Sim time in seconds at which the vehicle computer receives it
-            (``t`` plus the sensor's delay).
+            (the true sampling instant plus the sensor's delay).
         values: Channel name to value (numpy arrays; scalars are 0-d or shape (1,)).
     """
 

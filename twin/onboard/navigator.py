@@ -17,6 +17,7 @@ Onboard side: it sees only readings and the vehicle's declared knowledge
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 from dataclasses import dataclass, field
@@ -29,7 +30,7 @@ from twin.core.ephemeris import sun_direction_enu
 from twin.core.messages import Reading
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
-from twin.onboard.ins import NavState
+from twin.onboard.ins import NavState, rotvec_to_dcm
 
 #: The variant that uses no compass: INS aided by gravity and depth only.
 INS_ONLY = "ins"
@@ -128,6 +129,7 @@ class Navigator:
         self._next_compass_t = init.t
         self.events: list[CompassEvent] = []
         self.updates: dict[str, int] = {"sun": 0, "sun_rejected": 0, "no_fix": 0, "frames": 0}
+        self._rate_b = np.zeros(3)  # the last IMU sample's angular rate (body, rad/s)
         r_m, r_n = earth.principal_radii(math.radians(knowledge.latitude_deg))
         self._m_per_rad = (r_m, r_n * math.cos(math.radians(knowledge.latitude_deg)))
 
@@ -140,6 +142,7 @@ class Navigator:
             if reading.t <= f.t:
                 return None  # the first sample at t = 0 only anchors the clock
             f.predict_reading(reading)
+            self._rate_b = np.asarray(reading["angular_rate"], dtype=np.float64).reshape(3)
             if self.config.gravity_aiding and f.t >= self._next_gravity_t - 1e-9:
                 f.update_gravity()
                 self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
@@ -174,13 +177,39 @@ class Navigator:
         self.updates["frames"] += 1
         update = None
         if fix.ok:
-            update = self.filter.update_sun(fix, azimuth_only=self.config.sun_azimuth_only)
+            update = self.filter.update_sun(
+                self._at_filter_time(fix, reading.t), azimuth_only=self.config.sun_azimuth_only
+            )
             self.updates["sun" if update.applied else "sun_rejected"] += 1
         else:
             self.updates["no_fix"] += 1
         event = CompassEvent(reading.t, fix, update)
         self.events.append(event)
         return event
+
+    def _at_filter_time(self, fix: CompassFix, t_stamp: float) -> CompassFix:
+        """The fix's body-frame sun turned from its frame's time stamp to the filter's time.
+
+        A frame stamped ``t_stamp`` measured the sun in the body frame of that instant; the filter
+        is at ``f.t`` (the last IMU sample). Between the two the body turned by ω·Δt, with ω the
+        last gyro sample less the filter's bias estimate (constant over Δt: frames are fused
+        within a camera delay of the IMU clock, ≤ 0.1 s, where the rate barely changes). The
+        stamp is all the vehicle knows of the frame's time, so a camera clock offset leaves an
+        error of ω times the offset (``sensors.polarimeter.hardware``).
+        """
+        f = self.filter
+        lag = f.t - t_stamp
+        if abs(lag) < 1e-9 or fix.sun_body is None:
+            return fix
+        rate = self._rate_b - np.asarray(f.estimate().gyro_bias, dtype=np.float64)
+        # C_b^n(t + Δt) = C_b^n(t) exp([ω×]Δt): a body vector at t is exp(−[ω×]Δt) of it at t + Δt.
+        turn = rotvec_to_dcm(*(-rate * lag))
+        cov = fix.covariance_body
+        return dataclasses.replace(
+            fix,
+            sun_body=turn @ np.asarray(fix.sun_body, dtype=np.float64),
+            covariance_body=None if cov is None else turn @ np.asarray(cov) @ turn.T,
+        )
 
     # ---- outputs -------------------------------------------------------------------------------
     def estimate(self) -> NavEstimate:

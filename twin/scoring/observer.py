@@ -52,8 +52,12 @@ class RunScorer:
             }
             for name, event in result.events:
                 if name in self.fixes:
-                    same_instant = abs(event.t - now.t) < 1e-9
-                    self.fixes[name].add(event, now if same_instant else None, frames.get(event.t))
+                    # event.t is the frame's stamp; its truth record keeps the true instant,
+                    # which a camera clock offset (sensors/polarimeter/hardware.py) moves away.
+                    frame = frames.get(event.t)
+                    taken = getattr(frame, "t", event.t)
+                    same_instant = abs(taken - now.t) < 1e-9
+                    self.fixes[name].add(event, now if same_instant else None, frame)
         self._k += 1
         if self._k % self._every_truth:
             return

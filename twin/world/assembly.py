@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 import sensors
-from scenarios.schema import Scenario
+from scenarios.schema import Hardware, Scenario
+from sensors.polarimeter.hardware import CalibrationUncertainty, HardwareErrors, MountingError
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
@@ -108,7 +109,33 @@ def polarimeter_sensor(scenario: Scenario, preset: str | None = None) -> sensors
         cam.configure(optics_config(scenario))
     except (KeyError, ValueError, TypeError) as exc:
         raise ValueError(f"optics: {exc}") from exc
+    try:
+        cam.configure_hardware(hardware_errors(scenario.hardware))  # type: ignore[attr-defined]
+    except ValueError as exc:
+        raise ValueError(f"hardware: {exc}") from exc
     return cam
+
+
+def hardware_errors(h: Hardware) -> HardwareErrors:
+    """The polarimeter unit's error budget from the scenario's [hardware] table."""
+    cal = (
+        CalibrationUncertainty.ideal()
+        if h.calibration == "ideal"
+        else CalibrationUncertainty(
+            focal_sigma_rel=h.focal_sigma_rel,
+            principal_point_sigma_px=h.principal_point_sigma_px,
+            polarizer_sigma_deg=h.polarizer_sigma_deg,
+        )
+    )
+    mount = (
+        MountingError.ideal()
+        if h.mounting == "ideal"
+        else MountingError(
+            boresight_sigma_deg=h.boresight_sigma_deg,
+            clock_offset_sigma_ms=h.clock_offset_sigma_ms,
+        )
+    )
+    return HardwareErrors(cal, mount)
 
 
 def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
