@@ -157,3 +157,38 @@ def test_the_closed_loop_sea_trial_completes_its_mission(tmp_path) -> None:
     # estimate (the estimate's own error is part of it).
     assert m["steady_tracking"]["heading_error_rms_deg"] < 5.0
     assert m["depth_error_rms_m"] < 0.5
+
+
+def test_a_real_units_frames_carry_its_clock_and_are_still_scored(short_run) -> None:
+    """The default [hardware] budget: the camera stamps off the IMU clock; truth is not fooled."""
+    _, m = short_run
+    f = m["navigation"]["variants"]["lig"]["compass_fix_errors"]
+    assert f["unscored_delayed"] == 0 and f["scored"] == f["fixes"] > 20
+    world = build_simulation(_short_trial(duration_s=3.0))
+    cam = world.suite["polarimeter"]
+    offset = cam.clock_offset_s
+    assert offset != 0.0 and abs(offset) < 0.05  # a 5 ms σ draw
+    assert cam.unit is not None and 0.0 < cam.unit.boresight_deg() < 2.0
+    while world.plant.t < 1.05:
+        result = world.step(world.control())
+        for r, x in zip(result.readings, result.truth, strict=True):
+            if r.sensor == "polarimeter":
+                assert r.t == pytest.approx(x.t + offset, abs=1e-12)
+                assert x.t == pytest.approx(world.plant.t, abs=1e-9)
+
+
+def test_a_fix_is_turned_from_its_stamp_to_the_filter_time() -> None:
+    from twin.onboard.compass.base import CompassFix
+
+    nav = build_simulation(_short_trial(duration_s=3.0)).navigators["lig"]
+    bias = np.asarray(nav.estimate().gyro_bias)
+    nav._rate_b = bias + np.array([0.0, 0.0, 0.1])  # 0.1 rad/s yaw, bias-corrected
+    s = np.array([0.6, 0.0, 0.8])
+    fix = CompassFix("lig", True, sun_body=s, sun_enu=s, covariance_body=np.diag([1.0, 2.0, 3.0]))
+    t = nav.filter.t
+    same = nav._at_filter_time(fix, t)
+    assert same is fix
+    late = nav._at_filter_time(fix, t - 0.5)  # taken 0.5 s before the filter's time
+    a = -0.05  # the body turned +0.05 rad about z since: the sun turned −0.05 in it
+    np.testing.assert_allclose(late.sun_body, [0.6 * np.cos(a), 0.6 * np.sin(a), 0.8], atol=1e-12)
+    np.testing.assert_allclose(np.trace(late.covariance_body), 6.0, atol=1e-12)

@@ -21,9 +21,16 @@ from twin.onboard import polarization as onboard
 from twin.onboard.polarization import stokes_from_mosaic
 
 EXPOSURE_US = 1000.0
-# Temporal noise only: no fixed pattern, no crosstalk (the AoP-noise law is about shot noise).
+# Pixel temporal noise only: no fixed pattern, no crosstalk, no defects, no row noise (the
+# AoP-noise law is about shot and read noise).
 TEMPORAL = dataclasses.replace(
-    preset("imx250mzr"), orientation_error_deg=0.0, prnu=0.0, dsnu_e=0.0, crosstalk=0.0
+    preset("imx250mzr"),
+    orientation_error_deg=0.0,
+    prnu=0.0,
+    dsnu_e=0.0,
+    crosstalk=0.0,
+    hot_pixel_fraction=0.0,
+    row_noise_e=0.0,
 )
 NOISELESS = dataclasses.replace(
     preset("ideal"), auto_exposure=False, exposure_us=EXPOSURE_US, extinction_ratio=math.inf
@@ -311,11 +318,13 @@ def test_dark_frame_is_black_level_plus_dark_noise_without_nan():
     raw = cam.render_mosaic(dark, EXPOSURE_US, np.random.default_rng(1)).astype(float)
     k = spec.conversion_gain_e_per_dn
     assert raw.mean() == pytest.approx(spec.black_level_dn, abs=0.05)
-    sigma_dn = math.sqrt(spec.read_noise_e**2 + spec.dsnu_e**2 + k**2 / 12) / k
-    assert raw.std() == pytest.approx(sigma_dn, rel=0.05)
-    # A long exposure at night: dark current adds its mean (and shot noise).
+    sigma_dn = math.sqrt(spec.read_noise_e**2 + spec.dsnu_e**2 + spec.row_noise_e**2 + k**2 / 12)
+    assert raw.std() == pytest.approx(sigma_dn / k, rel=0.05)
+    # A long exposure at night: dark current adds its mean (and shot noise), the hot pixels
+    # their own.
     night = cam.render_mosaic(dark, 1e6, np.random.default_rng(2)).astype(float)
-    dark_e = spec.dark_current_at_temp_e_per_s * 1.0
+    hot = cam._fp.hot.size / raw.size
+    dark_e = spec.dark_current_at_temp_e_per_s * (1 - hot) + spec.hot_pixel_dark_e_per_s * hot
     assert night.mean() == pytest.approx(spec.black_level_dn + dark_e / k, abs=0.05)
     for method in ("superpixel", "interpolate"):
         img = stokes_from_mosaic(raw.astype(np.uint16), method=method, black_level_dn=240.0)
