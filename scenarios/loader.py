@@ -29,6 +29,7 @@ from scenarios.schema import (
     CURRENT_KINDS,
     HARDWARE_SIGMAS,
     JERLOV_TYPES,
+    LENS_MODELS,
     MISSION_KINDS,
     MOUNTING_MODELS,
     NAV_TUNINGS,
@@ -1010,7 +1011,11 @@ def _hardware(t: _Table | None) -> Hardware | None:
         return None
     defaults = Hardware()
     values: dict[str, Any] = {}
-    choices = {"calibration": CALIBRATION_MODELS, "mounting": MOUNTING_MODELS}
+    choices = {
+        "calibration": CALIBRATION_MODELS,
+        "mounting": MOUNTING_MODELS,
+        "lens": LENS_MODELS,
+    }
     for model, sigmas in HARDWARE_SIGMAS.items():
         kind = t.string(model, choices=choices[model], default=getattr(defaults, model))
         values[model] = kind
@@ -1020,18 +1025,23 @@ def _hardware(t: _Table | None) -> Hardware | None:
                 t.report.add(
                     t.at(key),
                     f"is set while hardware.{model} = 'ideal'; an ideal model has no error "
-                    f"(use {model} = {_show(choices[model][0])} for a σ)",
+                    f"(use {model} = {_show(choices[model][0])} for it)",
                 )
                 values[key] = None
                 continue
-            values[key] = t.number(key, HARDWARE_RANGES[key], default=getattr(defaults, key))
+            if key == "lens_compensation":
+                values[key] = t.boolean(key, default=True)
+            else:
+                values[key] = t.number(key, HARDWARE_RANGES[key], default=getattr(defaults, key))
     hardware = _build(Hardware, **values)
     t.finish()
     if hardware is not None:
-        # An ideal model's σ are 0: nothing is drawn for it downstream.
+        # An ideal model's σ are 0 (and an ideal lens needs no compensation): nothing is drawn
+        # for it downstream.
         for model, sigmas in HARDWARE_SIGMAS.items():
             if getattr(hardware, model) == "ideal":
-                hardware = dataclasses.replace(hardware, **dict.fromkeys(sigmas, 0.0))
+                off = {k: (False if k == "lens_compensation" else 0.0) for k in sigmas}
+                hardware = dataclasses.replace(hardware, **off)
     return hardware
 
 

@@ -238,6 +238,7 @@ class Optics:
 
 CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")
 MOUNTING_MODELS: tuple[str, ...] = ("bracket", "ideal")
+LENS_MODELS: tuple[str, ...] = ("fresnel", "ideal")
 
 
 @dataclass(frozen=True, slots=True)
@@ -258,6 +259,10 @@ class Hardware:
             stamps its frames off the IMU's clock; ``"ideal"``: neither.
         boresight_sigma_deg: 1σ of each boresight rotation component (deg).
         clock_offset_sigma_ms: 1σ of the camera's clock offset (ms).
+        lens: ``"fresnel"``: the lens's own diattenuation and retardance, growing with field
+            angle (``sensors.polarimeter.lens``); ``"ideal"``: a polarization-neutral lens.
+        lens_compensation: The unit's lens is measured on the simulated bench of xin2024 §2.3
+            and the vehicle undoes what it found (``twin.onboard.lens``); False: uncompensated.
     """
 
     calibration: str = "checkerboard"
@@ -267,10 +272,12 @@ class Hardware:
     mounting: str = "bracket"
     boresight_sigma_deg: float = 0.19
     clock_offset_sigma_ms: float = 5.0
+    lens: str = "fresnel"
+    lens_compensation: bool = True
 
     @classmethod
     def ideal(cls) -> Hardware:
-        return cls(calibration="ideal", mounting="ideal")
+        return cls(calibration="ideal", mounting="ideal", lens="ideal")
 
 
 #: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
@@ -461,6 +468,7 @@ def _current_dict(c: Current) -> dict[str, Any]:
 HARDWARE_SIGMAS: dict[str, tuple[str, ...]] = {
     "calibration": ("focal_sigma_rel", "principal_point_sigma_px", "polarizer_sigma_deg"),
     "mounting": ("boresight_sigma_deg", "clock_offset_sigma_ms"),
+    "lens": ("lens_compensation",),
 }
 
 

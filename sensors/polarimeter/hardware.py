@@ -11,6 +11,11 @@ seed, how the two differ:
 * **Mounting** (:class:`MountingError`): the camera's axes are turned from the IMU's by a small
   boresight rotation the vehicle does not know, and the camera's time stamps are off the IMU's
   clock by a constant offset.
+* **Lens** (:class:`sensors.polarimeter.lens.LensPolarization`): the lens's own diattenuation and
+  retardance, growing with field angle (not drawn: the same for every unit of a lens design);
+  with ``lens_compensation`` the unit is measured on the simulated bench of xin2024 §2.3
+  (:mod:`sensors.polarimeter.bench`) and the vehicle undoes what the bench found
+  (:mod:`twin.onboard.lens`).
 
 Each model has an ``ideal`` form (every σ = 0), which reproduces the perfect vehicle knowledge the
 twin had before: the perfect calibration, an identity boresight, no clock offset, and no random
@@ -46,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from sensors.polarimeter.lens import LensPolarization
 from twin.core.calibration import CameraCalibration
 
 FloatArray = NDArray[np.float64]
@@ -168,15 +174,27 @@ class HardwareErrors:
 
     calibration: CalibrationUncertainty = dataclasses.field(default_factory=CalibrationUncertainty)
     mounting: MountingError = dataclasses.field(default_factory=MountingError)
+    lens: LensPolarization = dataclasses.field(default_factory=LensPolarization)
+    lens_compensation: bool = True
 
     @classmethod
     def ideal(cls) -> HardwareErrors:
-        """No error anywhere: the vehicle knows its camera exactly."""
-        return cls(CalibrationUncertainty.ideal(), MountingError.ideal())
+        """No error anywhere: the vehicle knows its camera exactly, the lens is neutral."""
+        return cls(CalibrationUncertainty.ideal(), MountingError.ideal(), LensPolarization.ideal())
+
+    @property
+    def benched(self) -> bool:
+        """Whether the unit's lens is measured on the bench (``sensors.polarimeter.bench``)."""
+        return self.lens_compensation and not self.lens.is_ideal
+
+    @property
+    def drawn(self) -> bool:
+        """Whether a unit is drawn per run (calibration or mounting errors, a bench session)."""
+        return not (self.calibration.is_ideal and self.mounting.is_ideal) or self.benched
 
     @property
     def is_ideal(self) -> bool:
-        return self.calibration.is_ideal and self.mounting.is_ideal
+        return not self.drawn and self.lens.is_ideal
 
     def draw(self, true: CameraCalibration, binning: int, rng: np.random.Generator) -> HardwareUnit:
         """One unit as built and calibrated, from the run's generator for it."""

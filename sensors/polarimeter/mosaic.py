@@ -84,7 +84,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -384,15 +384,24 @@ class DoFPSensor:
     Args:
         spec: The sensor's spec (validated here).
         shape: (rows, columns) of the raw frame; both even (whole 2×2 super-pixels).
-        rng: Generator for the manufacturing fixed pattern (orientation errors, PRNU, DSNU),
-            drawn once here, in that order, skipping any whose σ is 0.
+        rng: Generator for the manufacturing fixed pattern (orientation errors, PRNU, DSNU,
+            hot pixels), drawn once here, in that order, skipping any whose σ is 0.
+        optics: Optional function folding what lies between the light the caller describes and
+            the analysers (the lens's own polarization, ``sensors.polarimeter.lens``) into the
+            (H, W, 3) analysis vectors: a ↦ a·M per pixel, M the optics' Mueller matrix on
+            (S0, S1, S2) in the sensor frame. Applied once, after the crosstalk, so a frame
+            costs nothing more.
 
     Raises:
         ValueError: If the spec is impossible or the shape is not even and positive.
     """
 
     def __init__(
-        self, spec: PolarizationSensorSpec, shape: tuple[int, int], rng: np.random.Generator
+        self,
+        spec: PolarizationSensorSpec,
+        shape: tuple[int, int],
+        rng: np.random.Generator,
+        optics: Callable[[NDArray[np.floating]], NDArray[np.floating]] | None = None,
     ):
         spec.validate()
         h, w = (int(v) for v in shape)
@@ -401,7 +410,7 @@ class DoFPSensor:
         self._spec = spec
         self._shape = (h, w)
         self._band_rows = max(2, min(h, _BAND_PIXELS // w))
-        self._fp = self._draw_fixed_pattern(rng)
+        self._fp = self._draw_fixed_pattern(rng, optics)
 
     # --- properties -----------------------------------------------------------------------------
     @property
@@ -445,7 +454,11 @@ class DoFPSensor:
         return self._fp.analysis
 
     # --- fixed pattern --------------------------------------------------------------------------
-    def _draw_fixed_pattern(self, rng: np.random.Generator) -> _FixedPattern:
+    def _draw_fixed_pattern(
+        self,
+        rng: np.random.Generator,
+        optics: Callable[[NDArray[np.floating]], NDArray[np.floating]] | None,
+    ) -> _FixedPattern:
         s, (h, w) = self._spec, self._shape
         eps = np.zeros((h, w), np.float32)
         if s.orientation_error_deg > 0:
@@ -472,6 +485,14 @@ class DoFPSensor:
             # Reflect-101 keeps the 2×2 phase at the borders: the mirrored neighbour is of the
             # same analyser type as the missing one.
             analysis = cv2.filter2D(analysis, -1, kernel, borderType=cv2.BORDER_REFLECT_101)
+        if optics is not None:
+            # Measured = a · (M S) = (a M) · S: the optics folded into each analysis vector.
+            folded = np.asarray(optics(analysis))
+            if folded.shape != analysis.shape or not np.all(np.isfinite(folded)):
+                raise ValueError(
+                    f"optics: returned {folded.shape}; must be finite {analysis.shape}"
+                )
+            analysis = folded
         return _FixedPattern(
             orientation_error_rad=_read_only(eps),
             gain=_read_only(gain),

@@ -51,7 +51,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.base import Sensor, SensorSpec, WorldView
+from sensors.polarimeter import bench as bench_mod
 from sensors.polarimeter import camera as camera_mod
+from sensors.polarimeter import lens as lens_mod
 from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import surface as surface_mod
@@ -515,11 +517,27 @@ class Polarimeter(Sensor):
             raise TypeError(f"configure_hardware needs HardwareErrors, got {type(errors).__name__}")
         self.hardware = errors
         self.unit = None
+        self._dofp = None  # the lens is folded into the sensor: rebuilt at the next frame/reset
 
     def draw_unit(self, rng: np.random.Generator) -> HardwareUnit:
-        """Draw this run's unit (calibration, boresight, clock offset) from ``rng``."""
-        self.unit = self.hardware.draw(self.true_calibration(), self.camera.spec.binning, rng)
-        return self.unit
+        """Draw this run's unit (calibration, boresight, clock offset) from ``rng``.
+
+        With a benched lens, the unit's lens is then measured on the simulated bench (with the
+        sensor's fixed pattern, drawn first from ``rng`` if there is none yet) and the table is
+        added to the onboard calibration.
+        """
+        cal_rng, bench_rng, sensor_rng = rng.spawn(3)
+        unit = self.hardware.draw(self.true_calibration(), self.camera.spec.binning, cal_rng)
+        if self.hardware.benched:
+            if self._dofp is None:
+                self._dofp = self._new_sensor(sensor_rng)
+            table = bench_mod.measure_lens(
+                self._dofp, self.true_calibration(), unit.calibration, bench_rng
+            )
+            cal = dataclasses.replace(unit.calibration, lens_table=table)
+            unit = dataclasses.replace(unit, calibration=cal)
+        self.unit = unit
+        return unit
 
     def true_calibration(self) -> CameraCalibration:
         """The exact calibration of the world's camera (truth; built once)."""
@@ -530,12 +548,13 @@ class Polarimeter(Sensor):
     def calibration(self) -> CameraCalibration:
         """The onboard camera calibration: what the vehicle knows of this camera.
 
-        The exact one when the hardware budget is ideal; otherwise the drawn unit's.
+        The exact one when nothing is drawn per run (``HardwareErrors.drawn``); otherwise the
+        drawn unit's: its calibration error and its bench-measured lens table.
 
         Raises:
             RuntimeError: The budget is not ideal and no unit has been drawn yet.
         """
-        if self.hardware.calibration.is_ideal:
+        if not self.hardware.drawn:
             return self.true_calibration()
         if self.unit is None:
             raise RuntimeError(
@@ -543,6 +562,23 @@ class Polarimeter(Sensor):
                 "reset(), draw_unit(rng) or render_offline() first"
             )
         return self.unit.calibration
+
+    def _new_sensor(self, rng: np.random.Generator) -> mosaic_mod.DoFPSensor:
+        """The DoFP sensor with its fixed pattern from ``rng``, behind this camera's lens."""
+        lens = None if self.hardware.lens.is_ideal else self._fold_lens
+        return mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng, optics=lens)
+
+    def lens_transfer(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(T̄, D, δ, radial angle) of the lens at every pixel (``sensors.polarimeter.lens``)."""
+        cam = self.camera
+        h, w = cam.shape
+        cu, cv = self.true_calibration().principal_point_px
+        v, u = np.mgrid[0:h, 0:w].astype(np.float32)
+        t, d, delta = self.hardware.lens.transfer(cam.theta, self.optics.wavelength_nm)
+        return t, d, delta, np.arctan2(v - np.float32(cv), u - np.float32(cu))
+
+    def _fold_lens(self, analysis: FloatArray) -> FloatArray:
+        return lens_mod.fold_radial(analysis, *self.lens_transfer())
 
     @property
     def clock_offset_s(self) -> float:
@@ -566,10 +602,10 @@ class Polarimeter(Sensor):
         # The third stream (the unit's errors) is used only by a non-ideal budget, so an ideal
         # unit's fixed pattern and sea are what they were before the budget existed.
         seeds = rng.spawn(3)
-        self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, seeds[0])
+        self._dofp = self._new_sensor(seeds[0])
         sea = self._sea()
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
-        self.unit = None if self.hardware.is_ideal else self.draw_unit(seeds[2])
+        self.unit = self.draw_unit(seeds[2]) if self.hardware.drawn else None
         self._last_t = None
         self.truth = None
 
@@ -637,8 +673,8 @@ class Polarimeter(Sensor):
         if not math.isfinite(t):
             raise ValueError(f"t: {t!r}; allowed: a finite time in s")
         if self._dofp is None:
-            self._dofp = mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng)
-        if self.unit is None and not self.hardware.is_ideal:
+            self._dofp = self._new_sensor(rng)
+        if self.unit is None and self.hardware.drawn:
             self.draw_unit(rng.spawn(1)[0])
         c = self._true_attitude(c)
         self._offline_waves(float(t), rng)

@@ -57,6 +57,11 @@ class CameraCalibration:
         black_level_dn: The sensor's pedestal, subtracted before the Stokes inversion.
         mount_rotation: (3, 3) C_c^b, camera → body (identity: optical axis = body +z).
         pixel_pitch_um: Pixel pitch of the frame (after binning), µm; informational.
+        lens_table: The lens's polarization as a bench measured it (``twin.onboard.lens``):
+            rows (θ rad, T̄, D, a, c) of field angle, relative transmission, radial
+            diattenuation, and the S1 and S2 factors of the radial frame (a = m11/m00,
+            c = m22/m00: √(1 − D²) cos δ times the analysers' own diattenuation), θ
+            increasing; empty = no compensation.
     """
 
     width_px: int
@@ -77,6 +82,7 @@ class CameraCalibration:
         (0.0, 0.0, 1.0),
     )
     pixel_pitch_um: float = 3.45
+    lens_table: tuple[tuple[float, float, float, float, float], ...] = ()
     _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
@@ -108,6 +114,16 @@ class CameraCalibration:
                 f"CameraCalibration.polarization_mapping: {self.polarization_mapping!r}; "
                 "allowed: 'meridional', 'orthographic'"
             )
+        if self.lens_table:
+            tab = np.asarray(self.lens_table, dtype=np.float64)
+            ok = tab.ndim == 2 and tab.shape[1] == 5 and bool(np.all(np.isfinite(tab)))
+            ok = ok and bool(np.all(np.diff(tab[:, 0]) > 0)) and bool(np.all(tab[:, 1] > 0))
+            ok = ok and bool(np.all(tab[:, 3] > tab[:, 2] ** 2)) and bool(np.all(tab[:, 4] > 0))
+            if not ok:
+                raise ValueError(
+                    "CameraCalibration.lens_table: rows (θ, T, D, a, c) with θ increasing, "
+                    "T > 0, a > D², c > 0"
+                )
         m = np.asarray(self.mount_rotation, dtype=np.float64)
         if m.shape != (3, 3) or not np.allclose(m @ m.T, np.eye(3), atol=1e-9):
             raise ValueError("CameraCalibration.mount_rotation: must be a 3x3 rotation matrix")

@@ -15,6 +15,7 @@ import numpy as np
 import sensors
 from scenarios.schema import Hardware, Scenario
 from sensors.polarimeter.hardware import CalibrationUncertainty, HardwareErrors, MountingError
+from sensors.polarimeter.lens import LensPolarization
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
@@ -135,7 +136,8 @@ def hardware_errors(h: Hardware) -> HardwareErrors:
             clock_offset_sigma_ms=h.clock_offset_sigma_ms,
         )
     )
-    return HardwareErrors(cal, mount)
+    lens = LensPolarization.ideal() if h.lens == "ideal" else LensPolarization()
+    return HardwareErrors(cal, mount, lens, lens_compensation=h.lens_compensation)
 
 
 def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:

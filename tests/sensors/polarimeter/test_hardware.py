@@ -39,6 +39,7 @@ def test_the_scenario_defaults_are_the_modules_sourced_defaults():
         assert getattr(h, key) == getattr(mount, key)
     assert hardware_errors(h) == HardwareErrors()
     assert hardware_errors(Hardware.ideal()).is_ideal
+    assert not hardware_errors(Hardware.ideal()).drawn
 
 
 def test_an_ideal_budget_draws_nothing_and_knows_the_camera_exactly():

@@ -67,6 +67,7 @@ from twin.onboard.compass.lig import (
     resolve_by_intensity,
     smallest_eigenvector,
 )
+from twin.onboard.lens import compensate, grid_uv
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
 
@@ -127,14 +128,20 @@ def binned_stokes(
     h, w = geo.cal.height_px, geo.cal.width_px
     kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
     if m == 2:
-        return stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
-    r = raw[: h * m, : w * m]
-    mos = np.empty((2 * h, 2 * w), np.float32)
-    for i in range(2):
-        for j in range(2):
-            plane = r[i::2, j::2].astype(np.float32)
-            mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
-    return stokes_from_mosaic(mos, **kwargs)
+        img = stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
+    else:
+        r = raw[: h * m, : w * m]
+        mos = np.empty((2 * h, 2 * w), np.float32)
+        for i in range(2):
+            for j in range(2):
+                plane = r[i::2, j::2].astype(np.float32)
+                mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
+        img = stokes_from_mosaic(mos, **kwargs)
+    if not calibration.lens_table:
+        return img
+    # Output (i, j) is the mean of raw block (m i … m i + m − 1, m j …): centred at m j + (m − 1)/2.
+    u, v = grid_uv(img.shape, "block", block=m)
+    return compensate(img, calibration, u, v)
 
 
 def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDArray, NDArray]:

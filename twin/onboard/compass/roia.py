@@ -226,7 +226,7 @@ class RoiaMethod(CompassMethod):
         # Stokes only around the zenith region: a crop of the mosaic (2×2 phase kept) with a
         # margin for the demosaicing kernel, so its pixels are those of the whole frame's.
         v0, v1, u0, u1 = zenith_crop(calibration, zen_c, radius)
-        pol = to_stokes(raw[v0:v1, u0:u1], calibration, cfg.stokes_grid)
+        pol = to_stokes(raw[v0:v1, u0:u1], calibration, cfg.stokes_grid, origin=(u0, v0))
         if cfg.stokes_grid == "superpixel":
             jj, ii = np.arange((u1 - u0) // 2), np.arange((v1 - v0) // 2)
             uu, vv = np.meshgrid(u0 + 2.0 * jj + 0.5, v0 + 2.0 * ii + 0.5)

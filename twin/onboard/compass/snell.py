@@ -102,24 +102,37 @@ from twin.onboard.compass.base import (
     no_fix,
     register,
 )
+from twin.onboard.lens import compensate, grid_uv
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
 
 # ---- helpers shared with roia.py ---------------------------------------------------------------
 def to_stokes(
-    raw: NDArray[np.generic], calibration: CameraCalibration, grid: StokesGrid = "interpolate"
+    raw: NDArray[np.generic],
+    calibration: CameraCalibration,
+    grid: StokesGrid = "interpolate",
+    origin: tuple[int, int] = (0, 0),
 ) -> PolarizationImage:
-    """The shared raw → Stokes derivation (``grid`` as ``stokes_from_mosaic``'s method)."""
+    """The shared raw → Stokes derivation (``grid`` as ``stokes_from_mosaic``'s method).
+
+    The lens's bench-measured polarization is undone when the calibration carries it
+    (:func:`twin.onboard.lens.compensate`); ``origin`` is the (u, v) of ``raw``'s first pixel
+    when it is a crop of the frame.
+    """
     r = raw
     if r.dtype.kind in "ui" and r.dtype not in (np.uint8, np.uint16):
         r = r.astype(np.float64)
-    return stokes_from_mosaic(
+    img = stokes_from_mosaic(
         r,
         calibration.layout_deg,
         method=grid,
         black_level_dn=calibration.black_level_dn,
         saturation_dn=calibration.saturation_dn,
     )
+    if not calibration.lens_table:
+        return img
+    u, v = grid_uv(img.shape, grid, origin)
+    return compensate(img, calibration, u, v)
 
 
 def meridian_basis(d: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -1,0 +1,98 @@
+"""Onboard compensation of the lens's polarization error, from a bench calibration.
+
+The Snell-window paper (xin2024 §2.3) measures its fisheye's AoP error against the incidence angle
+on a bench (a telecentric, polarized source turned through 0–90° in 10° steps, the polarizer
+through 0–170°) and compensates it. The vehicle here does the same with what its bench gave it:
+:attr:`twin.core.calibration.CameraCalibration.lens_table`, the lens's measured transfer at those
+incidence angles — the radial-frame Mueller matrix T̄ [[1, D, 0], [D, a, 0], [0, 0, c]] of the lens
+and the analysers together — which :func:`compensate` inverts at every pixel, interpolating
+linearly in field angle:
+
+    in the radial frame of the pixel (angle φ from the principal point, +u towards +v),
+    S0 = (a S0' − D S1') / (T̄ (a − D²)),  S1 = (S1' − D S0') / (T̄ (a − D²)),  S2 = S2' / (T̄ c).
+
+The paper fits one AoP-error curve of the incidence angle; a radial diattenuator's AoP error also
+depends on the light's own AoP and DoP (it is ≈ −D sin 2χ / (2p) for an AoP χ from the radial
+direction), which one curve cannot hold, so the vehicle inverts the measured Mueller matrix
+instead: the same bench data, the physically complete correction.
+
+Onboard side: geometry from the onboard calibration only (its principal point and its radial
+model give each pixel's field angle), so a calibration error shows up here too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.core.calibration import CameraCalibration
+from twin.onboard.polarization import PolarizationImage
+
+
+def compensate(
+    img: PolarizationImage,
+    calibration: CameraCalibration,
+    u: NDArray[np.floating],
+    v: NDArray[np.floating],
+) -> PolarizationImage:
+    """The Stokes images with the bench-measured lens transfer undone (unchanged if none).
+
+    Args:
+        img: Stokes images of a frame (or a crop of one).
+        calibration: The onboard calibration (its ``lens_table`` and geometry).
+        u: Frame column coordinate of each of ``img``'s pixels (same shape as its layers).
+        v: Frame row coordinate of each.
+    """
+    table = calibration.lens_table
+    if not table:
+        return img
+    tab = np.asarray(table, dtype=np.float64)
+    cu, cv = calibration.principal_point_px
+    du, dv = np.asarray(u, np.float64) - cu, np.asarray(v, np.float64) - cv
+    theta = calibration.theta_of_rho(np.hypot(du, dv))
+    t, d, a, c = (np.interp(theta, tab[:, 0], tab[:, k]) for k in (1, 2, 3, 4))
+    phi2 = 2.0 * np.arctan2(dv, du)
+    cos2, sin2 = np.cos(phi2), np.sin(phi2)
+    s0m, s1m, s2m = (np.asarray(x, np.float64) for x in (img.s0, img.s1, img.s2))
+    r1 = cos2 * s1m + sin2 * s2m  # radial frame
+    r2 = -sin2 * s1m + cos2 * s2m
+    k = 1.0 / (t * (a - d * d))
+    s0 = (a * s0m - d * r1) * k
+    q1 = (r1 - d * s0m) * k
+    q2 = r2 / (t * c)
+    s1 = cos2 * q1 - sin2 * q2
+    s2 = sin2 * q1 + cos2 * q2
+    lin = np.hypot(s1, s2)
+    dop = np.clip(np.divide(lin, s0, out=np.zeros_like(s0), where=s0 > 0), 0.0, 1.0)
+    aop = 0.5 * np.arctan2(s2, s1)
+    aop = np.where(aop >= np.pi / 2, aop - np.pi, aop)
+    f32 = np.float32
+    return PolarizationImage(
+        s0.astype(f32), s1.astype(f32), s2.astype(f32), aop.astype(f32), dop.astype(f32),
+        img.saturated,
+    )  # fmt: skip
+
+
+def grid_uv(
+    shape: tuple[int, int], kind: str, origin: tuple[int, int] = (0, 0), block: int = 2
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Frame (u, v) of a Stokes image's pixels.
+
+    Args:
+        shape: (rows, columns) of the Stokes image.
+        kind: ``"interpolate"`` (one output pixel per raw pixel), ``"superpixel"`` (one per
+            2×2) or ``"block"`` (one per ``block`` × ``block`` raw pixels, centred).
+        origin: (u0, v0) of the raw crop the image was made from.
+        block: Raw pixels per output pixel for ``"block"``.
+    """
+    r, c = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
+    u0, v0 = origin
+    if kind == "interpolate":
+        return c + u0, r + v0
+    size = 2 if kind == "superpixel" else block
+    if kind not in ("superpixel", "block"):
+        raise ValueError(f"grid kind: {kind!r}; allowed: 'interpolate', 'superpixel', 'block'")
+    return size * c + (size - 1) / 2.0 + u0, size * r + (size - 1) / 2.0 + v0
+
+
+__all__ = ["compensate", "grid_uv"]
