@@ -49,7 +49,8 @@ def measure_lens(
         true: The world camera's exact geometry (where the spot really falls).
         onboard: The vehicle's calibration (its analyser layout and black level invert the raw).
         rng: Generator for the bench's frame noise.
-        incidence_deg: Incidence (field) angles; those beyond the image circle are skipped.
+        incidence_deg: Incidence (field) angles; those beyond the image circle or the sensor's
+            edge are skipped.
         polarizer_deg: Polarizer angles from the radial direction.
         frames: Frames averaged per setting.
     """
@@ -73,8 +74,8 @@ def measure_lens(
         u = cu + float(true.rho_of_theta(theta))
         v0 = round(cv) // 2 * 2 - SPOT_PX // 2
         u0 = round(u) // 2 * 2 - SPOT_PX // 2
-        u0 = min(max(u0, 0), w - SPOT_PX)
-        v0 = min(max(v0, 0), h - SPOT_PX)
+        if not (0 <= u0 <= w - SPOT_PX and 0 <= v0 <= h - SPOT_PX):
+            continue  # the spot's image falls off the sensor (a camera narrower than its circle)
         win = (slice(v0, v0 + SPOT_PX), slice(u0, u0 + SPOT_PX))
         a, offset = analysis[win], dsnu[win]
         measured = np.empty_like(s_in)
