@@ -10,9 +10,11 @@ angles 0–90° in 10° steps (the camera on a precision turntable); at each, th
 spot on the sensor's +u axis at the field angle θ (the turntable turns about the sensor's v axis;
 the spot's radial direction is +u, so the polarizer angle χ is counted from the radial direction);
 the spot's raw pixels are computed from the unit's own analysis vectors (lens, micro-polarizers,
-PRNU, crosstalk, DSNU) with the temporal noise of ``frames`` averaged frames, and inverted by the
-vehicle's own raw → Stokes code with its own calibration; the spot's mean Stokes over all χ give
-the lens's radial-frame Mueller matrix at θ by least squares.
+PRNU, crosstalk, DSNU) with the temporal noise of ``frames`` averaged frames; the bench's software
+inverts the spot's mean per analyser with the analyser layout the vehicle believes (its
+calibration's: a least-squares inversion, the same convention as the vehicle's own
+``twin.onboard.polarization``, which world-side code may not import); the spot's Stokes over all χ
+give the lens's radial-frame Mueller matrix at θ by least squares.
 """
 
 from __future__ import annotations
@@ -23,7 +25,6 @@ import numpy as np
 
 from sensors.polarimeter.mosaic import DoFPSensor
 from twin.core.calibration import CameraCalibration
-from twin.onboard.polarization import stokes_from_mosaic
 
 #: The paper's bench: incidence 0–90° in 10° steps, polarizer 0–170° in 10° steps (xin2024 §2.3).
 INCIDENCE_DEG: tuple[float, ...] = tuple(float(a) for a in range(0, 91, 10))
@@ -62,6 +63,9 @@ def measure_lens(
     s0 = 0.5 * spec.full_scale_e / max(spec.quantum_efficiency * t_s, 1e-30)
     chis = np.radians(np.asarray(polarizer_deg, dtype=np.float64))
     s_in = s0 * np.stack([np.ones_like(chis), np.cos(2 * chis), np.sin(2 * chis)], axis=1)
+    # I_k = ½ (S0 + S1 cos 2α_k + S2 sin 2α_k) at the believed angle α_k of raw pixel (r, c).
+    two_a = np.radians(2.0 * np.asarray(onboard.layout_deg, dtype=np.float64).ravel())
+    inverse = np.linalg.pinv(0.5 * np.stack([np.ones(4), np.cos(two_a), np.sin(two_a)], axis=1))
     rows = []
     analysis = sensor.analysis.astype(np.float64)
     dsnu = sensor.dsnu_e.astype(np.float64)
@@ -84,10 +88,8 @@ def measure_lens(
             sigma = np.sqrt(np.maximum(lam, 0.0) + spec.read_noise_e**2) / math.sqrt(frames)
             e = lam + sigma * rng.standard_normal(lam.shape) + offset
             dn = np.clip(e / k + spec.black_level_dn, 0.0, spec.saturation_dn)
-            img = stokes_from_mosaic(
-                dn.astype(np.float32), onboard.layout_deg, black_level_dn=onboard.black_level_dn
-            )
-            measured[j] = (img.s0.mean(), img.s1.mean(), img.s2.mean())
+            phases = (dn - onboard.black_level_dn).reshape(SPOT_PX // 2, 2, SPOT_PX // 2, 2)
+            measured[j] = inverse @ phases.mean(axis=(0, 2)).ravel()
         m, *_ = np.linalg.lstsq(s_in, measured, rcond=None)
         m = m.T  # measured = M · s_in
         t = m[0, 0]

@@ -468,9 +468,12 @@ class DoFPSensor:
             gain = np.maximum(rng.normal(1.0, s.prnu, (h, w)), 0.0).astype(np.float32)
         dsnu = rng.normal(0.0, s.dsnu_e, (h, w)).astype(np.float32) if s.dsnu_e > 0 else None
         hot = np.zeros(0, np.intp)
-        if s.hot_pixel_fraction > 0:  # drawn last: the patterns above do not depend on it
-            n_hot = int(rng.binomial(h * w, s.hot_pixel_fraction))
-            hot = np.sort(rng.choice(h * w, size=n_hot, replace=False)).astype(np.intp)
+        if s.hot_pixel_fraction > 0:
+            # From a child stream: spawning does not advance ``rng``, so the patterns above and
+            # whatever the caller draws from ``rng`` next (a frame's noise) do not change.
+            hot_rng = rng.spawn(1)[0]
+            n_hot = int(hot_rng.binomial(h * w, s.hot_pixel_fraction))
+            hot = np.sort(hot_rng.choice(h * w, size=n_hot, replace=False)).astype(np.intp)
 
         nominal = np.tile(np.deg2rad(np.asarray(s.layout_deg, np.float64)), (h // 2, w // 2))
         two_a = 2.0 * (nominal + eps)
