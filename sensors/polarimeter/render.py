@@ -57,6 +57,7 @@ from sensors.polarimeter import lens as lens_mod
 from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import surface as surface_mod
+from sensors.polarimeter import tank as tank_mod
 from sensors.polarimeter import water as water_mod
 from sensors.polarimeter.calibration import calibration_from_spec
 from sensors.polarimeter.hardware import HardwareErrors, HardwareUnit
@@ -473,6 +474,8 @@ class Polarimeter(Sensor):
         # scenarios configure their [hardware] budget (twin/world/assembly.py).
         self.hardware = HardwareErrors.ideal()
         self.unit: HardwareUnit | None = None
+        # A tank around the camera for offline frames (configure_tank); None = open sea.
+        self.tank: tank_mod.Tank | None = None
         self._plans: dict[tuple[float, int], _FastPlan] = {}
         self._configure_derived()
 
@@ -518,6 +521,15 @@ class Polarimeter(Sensor):
         self.hardware = errors
         self.unit = None
         self._dofp = None  # the lens is folded into the sensor: rebuilt at the next frame/reset
+
+    def configure_tank(self, tank: tank_mod.Tank | None) -> None:
+        """Put the camera of offline frames in a tank (None: the open sea).
+
+        In a run the MuJoCo scene's own geometry occludes instead.
+        """
+        if tank is not None and not isinstance(tank, tank_mod.Tank):
+            raise TypeError(f"configure_tank needs a Tank or None, got {type(tank).__name__}")
+        self.tank = tank
 
     def draw_unit(self, rng: np.random.Generator) -> HardwareUnit:
         """Draw this run's unit (calibration, boresight, clock offset) from ``rng``.
@@ -672,6 +684,8 @@ class Polarimeter(Sensor):
             raise ValueError(f"depth_m: {depth_m!r}; allowed: a finite depth in m")
         if not math.isfinite(t):
             raise ValueError(f"t: {t!r}; allowed: a finite time in s")
+        if self.tank is not None:
+            self.tank.check_depth(float(depth_m))
         if self._dofp is None:
             self._dofp = self._new_sensor(rng)
         if self.unit is None and self.hardware.drawn:
@@ -761,10 +775,17 @@ class Polarimeter(Sensor):
         rays = port.directions  # (H, W, 3) outside the housing, camera frame
         valid = port.valid
         occluded = self._occlusion(world, pos, c_cn, rays, depth_m)
+        wall_m = None
+        if self.tank is not None and world is None and in_water:
+            # Offline in a tank (sensors/polarimeter/tank.py): walls and floor occlude the sky.
+            blocked, wall_m = self.tank.paths(rays.reshape(-1, 3) @ c_cn.T, depth_m, self.n_water)
+            wall_m = wall_m.reshape(cam.shape)
+            occluded = occluded | blocked.reshape(cam.shape)
         fc = self._frame_constants(sun, sun_enu, depth_m)
         plan = self._fast_plan(port) if (in_water and self._waves is None) or not in_water else None
         if plan is not None:
             st, window = self._render_fast(plan, c_cn, fc, valid, occluded)
+            self._truncate_paths(st, wall_m)
             return st, window, occluded, fc.sun_look
         if not in_water:
             sky = sky_radiance(rays, sun, o.sky, rotation=c_cn, psf_sigma_rad=self._psf_sigma_air)
@@ -790,7 +811,22 @@ class Polarimeter(Sensor):
         st = self._to_sensor(st, c_cn, port)
         st *= valid[..., None]
         self._finish(st)
+        self._truncate_paths(st, wall_m)
         return st, window, occluded, fc.sun_look
+
+    def _truncate_paths(self, st: FloatArray, wall_m: NDArray[np.float64] | None) -> None:
+        """Scale the path radiance of rays that end on a tank's black wall, in place.
+
+        A ray that ends after L m has 1 − e^(−cL) of the endless column's path radiance
+        (``sensors.polarimeter.tank``).
+        """
+        if wall_m is None:
+            return
+        hit = np.isfinite(wall_m)
+        if hit.any():
+            assert self._column is not None
+            c = self._column.water.c_per_m
+            st[hit] *= (-np.expm1(-c * wall_m[hit])).astype(st.dtype)[:, None]
 
     def _finish(self, st: FloatArray) -> None:
         """Radiance → photons/s, in place; no NaN/inf, S0 ≥ 0."""
