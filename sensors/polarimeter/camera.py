@@ -396,6 +396,18 @@ PRESETS: dict[str, FisheyeSpec] = {
         focal_length_mm=1.8,
         max_field_angle_deg=92.5,
     ),
+    # The Snell-window paper's polarimeter (xin2024 §4.1): the same PHX050S-P with a Fujinon
+    # FE185C046HA-1, 185 deg, f = 1.4 mm (stated there), modelled as ideal equidistant like its
+    # sibling above (no distortion published): a 1310 px image circle on the 2048 rows.
+    "phx050s_fe185c046": FisheyeSpec(
+        name="phx050s_fe185c046",
+        width_px=2448,
+        height_px=2048,
+        pixel_pitch_um=3.45,
+        projection="kannala_brandt",
+        focal_length_mm=1.4,
+        max_field_angle_deg=92.5,
+    ),
     # Sony IMX264MZR board camera (same 2448x2048, 3.45 um array; slower readout, other noise)
     # with the same FE185C057HA-1 lens, as in the ROI-A seed (fang2024 Table 2). Same geometry.
     "imx264_185": FisheyeSpec(

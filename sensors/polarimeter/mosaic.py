@@ -295,6 +295,11 @@ PRESETS: Mapping[str, PolarizationSensorSpec] = MappingProxyType(
         "imx250mzr": _imx250mzr(),
         # Lucid Phoenix PHX050S-P (IMX250MZR) of the LIG paper: 700 µs fixed (hu2024 §4.3).
         "phx050s_p": dataclasses.replace(_imx250mzr(), exposure_us=700.0),
+        # The same camera as the Snell-window paper ran it: auto exposure within 500-2500 µs
+        # (xin2024 §4.1).
+        "phx050s_p_xin2024": dataclasses.replace(
+            _imx250mzr(), auto_exposure=True, min_exposure_us=500.0, max_exposure_us=2500.0
+        ),
         # IMX264MZR (ROI-A paper): same 3.45 µm Pregius pixel, so the IMX250MZR figures are
         # assumed [uncertain]; auto exposure (fang2024 §2.1).
         "imx264mzr": dataclasses.replace(_imx250mzr(), auto_exposure=True),

@@ -444,6 +444,11 @@ class Polarimeter(Sensor):
             "phx050s_p_bin4": PolarimeterSpec(
                 camera="phx050s_fe185", sensor="phx050s_p", binning=4
             ),
+            # Snell-window paper (xin2024 §4.1): PHX050S-P + FE185C046HA-1 (f = 1.4 mm), auto
+            # exposure within its stated 500-2500 µs; binned 4x4 for campaigns.
+            "phx050s_p_fe185c046_bin4": PolarimeterSpec(
+                camera="phx050s_fe185c046", sensor="phx050s_p_xin2024", binning=4
+            ),
             # ROI-A paper (fang2024 Table 2): IMX264MZR board camera, 185° lens, auto exposure,
             # PMMA shell (a flat port is not stated; a dome is assumed) [uncertain].
             "imx264mzr": PolarimeterSpec(camera="imx264_185", sensor="imx264mzr"),
@@ -534,15 +539,17 @@ class Polarimeter(Sensor):
     def draw_unit(self, rng: np.random.Generator) -> HardwareUnit:
         """Draw this run's unit (calibration, boresight, clock offset) from ``rng``.
 
-        With a benched lens, the unit's lens is then measured on the simulated bench (with the
-        sensor's fixed pattern, drawn first from ``rng`` if there is none yet) and the table is
+        The unit's sensor (fixed pattern) is drawn from ``rng`` too when there is none yet. With a
+        benched lens, the unit's lens is then measured on the simulated bench and the table is
         added to the onboard calibration.
         """
         cal_rng, bench_rng, sensor_rng = rng.spawn(3)
         unit = self.hardware.draw(self.true_calibration(), self.camera.spec.binning, cal_rng)
+        if self._dofp is None:
+            # The unit's sensor (its fixed pattern) is part of the unit: from the unit's stream,
+            # so that a study's frames draw the same noise whatever else the budget holds.
+            self._dofp = self._new_sensor(sensor_rng)
         if self.hardware.benched:
-            if self._dofp is None:
-                self._dofp = self._new_sensor(sensor_rng)
             table = bench_mod.measure_lens(
                 self._dofp, self.true_calibration(), unit.calibration, bench_rng
             )

@@ -1,0 +1,137 @@
+"""The seeds' hardware experiments reproduced as campaigns, beside the papers' numbers.
+
+Each experiment is a campaign in scenarios/campaigns/ (≥ 20 seeds a cell) run through the
+campaign machinery (local worker pool); this script runs what is not on disk yet, reads the
+Parquet rows back and writes benchmarks/results/hardware_experiments.md (and a figure) with each
+figure as mean ± 95 % bootstrap CI beside the paper's. Nothing in the tables is typed in but the
+papers' own numbers.
+
+Run: ``python benchmarks/hardware_experiments.py [--workers 2] [--runs DIR] [--only snell]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import math
+import os
+import pathlib
+import platform
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from twin.campaign.report import bootstrap_ci
+from twin.campaign.results import load_campaign_results
+from twin.campaign.runner import run_campaign
+from twin.campaign.snell_turntable import CASES, PAPER_MAE_DEG
+from twin.campaign.spec import load_campaign
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def _ci_text(x: np.ndarray) -> tuple[str, float, float, float]:
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return "—", math.nan, math.nan, math.nan
+    lo, hi = bootstrap_ci(x, np.mean)
+    m = float(np.mean(x))
+    return f"{m:.2f} [{lo:.2f}, {hi:.2f}]", m, lo, hi
+
+
+def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
+    spec = load_campaign(ROOT / "scenarios" / "campaigns" / "snell_turntable.toml")
+    out = runs / spec.name
+    run_campaign(spec, out, workers=workers, progress=True)
+    df = load_campaign_results(out)
+    df = df[df["status"] == "ok"]
+    col = "metric.methods.snell.{}_mae_deg"
+    lines = [
+        "## Snell-window attitude on a turntable (xin2024 §4, Table 1)",
+        "",
+        f"Campaign `{spec.source}`: {len(spec.seeds)} sessions (seeds) per cell, each the mean",
+        "absolute error over 16 tilted frames (±15°…±45° about each axis); cells are the full",
+        "error budget under the paper's conditions and that budget with one part taken away",
+        "(twin/campaign/snell_turntable.py states every assumption). Mean over sessions with its",
+        "95 % bootstrap CI; the paper's mean of its 10 sessions beside it.",
+        "",
+        "| cell | sessions | roll MAE (°) | pitch MAE (°) | yaw MAE (°) | yaw vs truth (°) |"
+        " frames without a fix |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    width = 0.2
+    for i, case in enumerate(CASES):
+        g = df[df["param.case"] == case]
+        cells = []
+        for j, k in enumerate(("roll", "pitch", "yaw")):
+            text, m, lo, hi = _ci_text(g[col.format(k)].to_numpy(float))
+            cells.append(text)
+            if math.isfinite(m):
+                ax.bar(j + (i - 1.5) * width, m, width, yerr=[[m - lo], [hi - m]],
+                       label=case if j == 0 else None, color=f"C{i}", capsize=3)  # fmt: skip
+        truth, *_ = _ci_text(g[col.format("yaw_truth")].to_numpy(float))
+        nofix = int(g["metric.methods.snell.no_fix"].sum())
+        lines.append(f"| {case} | {len(g)} | {' | '.join(cells)} | {truth} | {nofix} |")
+    lines.append(
+        f"| **paper** | 10 | {PAPER_MAE_DEG['roll']:.2f} | {PAPER_MAE_DEG['pitch']:.2f} | "
+        f"{PAPER_MAE_DEG['yaw']:.2f} | — | — |"
+    )
+    for j, k in enumerate(("roll", "pitch", "yaw")):
+        ax.hlines(PAPER_MAE_DEG[k], j - 0.45, j + 0.45, colors="k", linestyles="--",
+                  label="paper" if j == 0 else None)  # fmt: skip
+    ax.set_xticks(range(3), ["roll", "pitch", "yaw"])
+    ax.set_ylabel("MAE (deg), mean over sessions, 95 % CI")
+    ax.set_title("xin2024 turntable: twin (bars) vs paper (dashed)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    budget = df[df["param.case"] == "budget"]
+    ratios = {
+        k: float(np.nanmean(budget[col.format(k)].to_numpy(float))) / PAPER_MAE_DEG[k]
+        for k in ("roll", "pitch", "yaw")
+    }
+    within = all(0.5 <= v <= 2 for v in ratios.values())
+    verdict = (
+        "within the factor of 2 the issue asks."
+        if within
+        else "not all within a factor of 2; the cells show which part of the budget does it."
+    )
+    lines += [
+        "",
+        "Twin ÷ paper with the full budget: "
+        + ", ".join(f"{k} {v:.1f}×" for k, v in ratios.items())
+        + f": {verdict}",
+        "",
+    ]
+    return lines, fig
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--runs", default=str(ROOT / "runs" / "hardware"), help="campaign folders")
+    args = ap.parse_args()
+    runs = pathlib.Path(args.runs)
+    lines = [
+        "# The seeds' hardware experiments, reproduced",
+        "",
+        f"Generated by `benchmarks/hardware_experiments.py` on {dt.date.today()} "
+        f"({platform.machine()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}).",
+        "",
+    ]
+    sec, fig = snell(runs, args.workers)
+    lines += sec
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    fig.savefig(RESULTS / "hardware_experiments_snell.png", dpi=110)
+    lines += ["![Snell turntable](hardware_experiments_snell.png)", ""]
+    (RESULTS / "hardware_experiments.md").write_text("\n".join(lines))
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
