@@ -46,6 +46,7 @@ _REGISTRY: dict[str, str] = {
     "moi_noise": "twin.campaign.moi_noise:TRIAL",
     "snell_turntable": "twin.campaign.snell_turntable:TRIAL",
     "roia_static": "twin.campaign.roia_static:TRIAL",
+    "lig_tank": "twin.campaign.lig_tank:TRIAL",
 }
 
 
