@@ -38,6 +38,12 @@ def _unit(v: np.ndarray) -> np.ndarray:
 # --- presets and the image circle ---------------------------------------------------------------
 
 
+def test_the_snell_papers_lens_is_a_smaller_circle():
+    # FE185C046HA-1 (xin2024 §4.1): f = 1.4 mm, r = 1.4 mm · 92.5° = 655.7 full-res px.
+    cam = Camera(preset("phx050s_fe185c046"))
+    assert cam.image_circle_radius_px == pytest.approx(1.4 * math.radians(92.5) / PITCH_MM)
+
+
 @pytest.mark.parametrize("name", ["phx050s_fe185", "imx264_185"])
 @pytest.mark.parametrize("binning", [1, 2, 4])
 def test_fisheye_presets_185_degree_image_circle(name: str, binning: int) -> None:
@@ -300,7 +306,7 @@ def test_perspective_field_angle_limit_and_unknown_preset() -> None:
         preset("moi_pinhole", max_field_angle_deg=90.0)
     with pytest.raises(ValueError, match="preset"):
         preset("gopro")
-    assert set(PRESETS) == {"phx050s_fe185", "imx264_185", "moi_pinhole"}
+    assert set(PRESETS) == {"phx050s_fe185", "phx050s_fe185c046", "imx264_185", "moi_pinhole"}
 
 
 @pytest.mark.parametrize("mapping", ["meridional", "orthographic"])

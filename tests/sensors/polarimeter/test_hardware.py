@@ -215,3 +215,23 @@ def test_a_unit_reports_its_misalignment():
         0.0,
     )
     assert u.boresight_deg() == pytest.approx(0.5, abs=1e-9)
+
+
+@pytest.mark.parametrize("method", ["lig", "pol", "snell", "roia"])
+def test_a_badly_wrong_calibration_gives_a_finite_fix_or_says_why_not(method):
+    """100 px of principal-point error and 15 % of focal length: no NaN reaches the filter."""
+    cam = sensors.create("polarimeter", "ideal_bin4")
+    cam.configure(OpticsConfig(jerlov_type="I"))
+    raw, _ = cam.render_offline(np.eye(3), 3.0, SUN, np.random.default_rng(0))
+    true = cam.true_calibration()
+    cu, cv = true.principal_point_px
+    wrong = dataclasses.replace(
+        true, principal_point_px=(cu + 100.0, cv - 60.0), focal_px=true.focal_px * 1.15
+    )
+    ctx = CompassContext(UTC, 36.175, 120.482, depth_m=3.0, water_index=cam.n_water, sun_enu=SUN)
+    fix = create(method).solve(raw, wrong, ctx)
+    if fix.ok:
+        assert np.all(np.isfinite(fix.sun_body)) and math.isfinite(fix.heading_deg)
+        assert fix.covariance_body is None or np.all(np.isfinite(fix.covariance_body))
+    else:
+        assert fix.reason and fix.sun_body is None
