@@ -168,7 +168,9 @@ class PolarimeterSpec(SensorSpec):
         Binning b sums the charge of b² same-orientation pixels and reads it out rescaled to the
         same ADC range (a camera's "average" binning mode): full well, conversion gain and dark
         current scale by b², read noise and DSNU (independent per pixel) by b. Shot noise follows
-        from the summed signal, so SNR grows by b as it should.
+        from the summed signal, so SNR grows by b as it should. A binned pixel is hot when one of
+        its b² is (probability 1 − (1 − f)^(b²); a hot pixel's own dark current is what it adds),
+        and its row noise sums b rows' offsets, each b times: σ·b^1.5.
         """
         s = mosaic_mod.preset(self.sensor)
         changes: dict[str, Any] = {}
@@ -180,6 +182,8 @@ class PolarimeterSpec(SensorSpec):
                 dark_current_e_per_s=s.dark_current_e_per_s * b * b,
                 read_noise_e=s.read_noise_e * b,
                 dsnu_e=s.dsnu_e * b,
+                hot_pixel_fraction=1.0 - (1.0 - s.hot_pixel_fraction) ** (b * b),
+                row_noise_e=s.row_noise_e * b**1.5,
             )
         if self.exposure_us is not None:
             changes["exposure_us"] = float(self.exposure_us)

@@ -103,3 +103,15 @@ def test_impossible_defects_name_the_field(field, value):
 def test_the_ideal_sensor_has_no_defects():
     ideal = preset("ideal")
     assert ideal.hot_pixel_fraction == 0.0 and ideal.row_noise_e == 0.0
+
+
+def test_binning_carries_the_defects():
+    import sensors
+
+    full = sensors.create("polarimeter", "phx050s_p").spec
+    s1 = full.sensor_spec()
+    s4 = dataclasses.replace(full, binning=4).sensor_spec()
+    # One hot pixel in 16 makes a hot binned pixel; 4 rows' offsets, each summed 4 times.
+    assert s4.hot_pixel_fraction == pytest.approx(1 - (1 - s1.hot_pixel_fraction) ** 16)
+    assert s4.hot_pixel_dark_e_per_s == s1.hot_pixel_dark_e_per_s
+    assert s4.row_noise_e == pytest.approx(8 * s1.row_noise_e)
