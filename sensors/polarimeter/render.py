@@ -405,7 +405,12 @@ class Polarimeter(Sensor):
         h, w = cam.shape
         cu, cv = self.true_calibration().principal_point_px
         v, u = np.mgrid[0:h, 0:w].astype(np.float32)
-        t, d, delta = self.hardware.lens.transfer(cam.theta, self.optics.wavelength_nm)
+        # The transfer depends on θ alone and is smooth: tabulate it on 4097 angles and
+        # interpolate (a full frame's complex Fresnel algebra would take ~1 GB).
+        theta = cam.theta
+        grid = np.linspace(0.0, max(float(theta.max()), 1e-6), 4097)
+        tabs = self.hardware.lens.transfer(grid, self.optics.wavelength_nm)
+        t, d, delta = (np.interp(theta, grid, x).astype(np.float32) for x in tabs)
         return t, d, delta, np.arctan2(v - np.float32(cv), u - np.float32(cu))
 
     def _fold_lens(self, analysis: FloatArray) -> FloatArray:
