@@ -30,7 +30,6 @@ import numpy as np
 
 import sensors
 from sensors.polarimeter.hardware import HardwareErrors
-from sensors.polarimeter.lens import LensPolarization
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from sensors.polarimeter.water import jerlov_water
@@ -92,12 +91,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     turbidity = b_p / base.b_particle_per_m
     cam = sensors.create("polarimeter", "phx050s_p_bin4", auto_exposure=True)
     cam.configure(OpticsConfig(jerlov_type="II", turbidity=turbidity, salinity_psu=0.0))
-    ideal = HardwareErrors.ideal()
-    errors = (
-        HardwareErrors()
-        if p["hardware"] == "real"
-        else HardwareErrors(ideal.calibration, ideal.mounting, LensPolarization.ideal())
-    )
+    errors = HardwareErrors() if p["hardware"] == "real" else HardwareErrors.ideal()
     cam.configure_hardware(errors)
     cam.configure_tank(Tank(diameter_m=3.0, water_depth_m=1.0))
     if errors.drawn:

@@ -37,7 +37,6 @@ import numpy as np
 import sensors
 from scenarios.loader import BEAUFORT_MPS
 from sensors.polarimeter.hardware import HardwareErrors
-from sensors.polarimeter.lens import LensPolarization
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from twin.campaign.trials import StudyTrial
@@ -100,8 +99,6 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     wind = BEAUFORT_MPS[case.wind_beaufort]
     cam.configure(OpticsConfig(jerlov_type=case.jerlov_type, wind_speed_mps=wind))
     errors = HardwareErrors() if p["hardware"] == "real" else HardwareErrors.ideal()
-    if p["hardware"] == "ideal":
-        errors = HardwareErrors(errors.calibration, errors.mounting, LensPolarization.ideal())
     cam.configure_hardware(errors)
     if in_tank:
         cam.configure_tank(Tank(shape="box", length_m=0.8, width_m=0.6, water_depth_m=0.625))

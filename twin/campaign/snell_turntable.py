@@ -45,7 +45,6 @@ import numpy as np
 import sensors
 from scenarios.loader import BEAUFORT_MPS
 from sensors.polarimeter.hardware import HardwareErrors
-from sensors.polarimeter.lens import LensPolarization
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from twin.campaign.trials import StudyTrial
@@ -175,7 +174,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             HardwareErrors(), lens_compensation=bool(p["lens_compensation"])
         )
     else:
-        errors = dataclasses.replace(HardwareErrors.ideal(), lens=LensPolarization.ideal())
+        errors = HardwareErrors.ideal()
     cam.configure_hardware(errors)
     cam.configure_tank(
         Tank(diameter_m=float(p["tank_diameter_m"]), water_depth_m=float(p["tank_water_depth_m"]))

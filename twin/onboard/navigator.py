@@ -142,7 +142,7 @@ class Navigator:
             if reading.t <= f.t:
                 return None  # the first sample at t = 0 only anchors the clock
             f.predict_reading(reading)
-            self._rate_b = np.asarray(reading["angular_rate"], dtype=np.float64).reshape(3)
+            self._rate_b = reading["angular_rate"]  # kept as is: converted only when a fix needs it
             if self.config.gravity_aiding and f.t >= self._next_gravity_t - 1e-9:
                 f.update_gravity()
                 self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
@@ -201,7 +201,9 @@ class Navigator:
         lag = f.t - t_stamp
         if abs(lag) < 1e-9 or fix.sun_body is None:
             return fix
-        rate = self._rate_b - np.asarray(f.estimate().gyro_bias, dtype=np.float64)
+        rate = np.asarray(self._rate_b, dtype=np.float64).reshape(3) - np.asarray(
+            f.estimate().gyro_bias, dtype=np.float64
+        )
         # C_b^n(t + Δt) = C_b^n(t) exp([ω×]Δt): a body vector at t is exp(−[ω×]Δt) of it at t + Δt.
         turn = rotvec_to_dcm(*(-rate * lag))
         cov = fix.covariance_body

@@ -65,13 +65,13 @@ def test_fold_radial_is_a_times_the_radial_mueller_matrix():
     )
 
 
-def _uniform_frame(cam, dop: float, chi_from_radial: bool = True):
+def _uniform_frame(cam, dop: float):
     """A uniform polarized field on the sensor, AoP 45° from each pixel's radial direction."""
     h, w = cam.camera.shape
     cu, cv = cam.true_calibration().principal_point_px
     v, u = np.mgrid[0:h, 0:w].astype(np.float64)
     phi = np.arctan2(v - cv, u - cu)
-    aop = phi + math.pi / 4 if chi_from_radial else np.zeros_like(phi)
+    aop = phi + math.pi / 4
     s0 = 4e6
     st = np.stack(
         [np.full_like(phi, s0), s0 * dop * np.cos(2 * aop), s0 * dop * np.sin(2 * aop)], -1
