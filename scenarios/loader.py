@@ -25,8 +25,10 @@ from typing import Any, TypeVar
 
 from scenarios.schema import (
     ATTITUDE_SOURCES,
+    BUBBLE_MODELS,
     CALIBRATION_MODELS,
     CURRENT_KINDS,
+    FLICKER_MODELS,
     HARDWARE_SIGMAS,
     JERLOV_TYPES,
     LENS_MODELS,
@@ -901,6 +903,8 @@ def _optics(t: _Table | None) -> Optics | None:
         wind_speed_mps=_wind(t),
         wind_toward_deg=t.number("wind_toward_deg", COMPASS_DEG, default=0.0),
         wavelength_nm=t.number("wavelength_nm", WAVELENGTH_NM, default=500.0),
+        bubbles=t.string("bubbles", choices=BUBBLE_MODELS, default="hall_novarini"),
+        flicker=t.string("flicker", choices=FLICKER_MODELS, default="caustics"),
     )
     t.finish()
     return optics

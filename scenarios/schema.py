@@ -204,6 +204,8 @@ class Sensors:
 
 
 SKY_POLARIZATION_MODELS: tuple[str, ...] = ("rayleigh", "berry")
+BUBBLE_MODELS: tuple[str, ...] = ("hall_novarini", "ideal")  # sensors.polarimeter.bubbles
+FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")  # sensors.polarimeter.caustics
 
 
 @dataclass(frozen=True, slots=True)
@@ -223,6 +225,13 @@ class Optics:
             for that force (``scenarios.loader.BEAUFORT_MPS``).
         wind_toward_deg: Compass direction the wind blows toward.
         wavelength_nm: The one wavelength the optics are evaluated at.
+        bubbles: ``"hall_novarini"``: the breaking waves' bubbles within a metre or two of the
+            surface, bright unpolarized points in the camera's view
+            (``sensors.polarimeter.bubbles``; none on a flat sea, nor in the tank scene, which
+            has no breaking waves); ``"ideal"``: none.
+        flicker: ``"caustics"``: the waves focus the sun's beam into the moving net that the
+            water's sun-lit light carries (``sensors.polarimeter.caustics``); ``"ideal"``: a
+            uniform beam under the waves.
     """
 
     cie_sky_type: int = 12
@@ -234,6 +243,8 @@ class Optics:
     wind_speed_mps: float = 0.0
     wind_toward_deg: float = 0.0
     wavelength_nm: float = 500.0
+    bubbles: str = "hall_novarini"
+    flicker: str = "caustics"
 
 
 CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")

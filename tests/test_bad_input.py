@@ -111,6 +111,8 @@ BAD = [
      "sensors.polarimeter_overrides", "no reading would arrive"),
     ("compass faster than the camera", _set("navigation.compass_rate_hz", 5.0),
      "navigation.compass_rate_hz", "allowed (0, 1]"),
+    ("unknown bubble model", _set("optics.bubbles", "foam"), "optics.bubbles", "hall_novarini"),
+    ("unknown flicker model", _set("optics.flicker", "strobe"), "optics.flicker", "caustics"),
 ]  # fmt: skip
 
 

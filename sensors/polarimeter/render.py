@@ -52,7 +52,9 @@ from numpy.typing import NDArray
 
 from sensors.base import Sensor, SensorSpec, WorldView
 from sensors.polarimeter import bench as bench_mod
+from sensors.polarimeter import bubbles as bubbles_mod
 from sensors.polarimeter import camera as camera_mod
+from sensors.polarimeter import caustics as caustics_mod
 from sensors.polarimeter import lens as lens_mod
 from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import stokes as stokes_mod
@@ -283,6 +285,9 @@ class Polarimeter(Sensor):
         self._tracker_place: tuple[int, int] | None = None
         self._dofp: mosaic_mod.DoFPSensor | None = None
         self._waves: surface_mod.WaveSurface | None = None
+        self._bubble_rng: np.random.Generator | None = None
+        # This frame's caustic field and the camera's (East, North), for the bubbles it lights.
+        self._caustics: tuple[caustics_mod.CausticField, tuple[float, float]] | None = None
         self._last_t: float | None = None
         self.truth: PolarimeterTruth | None = None
         self._calibration: CameraCalibration | None = None
@@ -294,6 +299,7 @@ class Polarimeter(Sensor):
         # A tank around the camera for offline frames (configure_tank); None = open sea.
         self.tank: tank_mod.Tank | None = None
         self._plans: dict[tuple[float, int], _FastPlan] = {}
+        self._omega_out: tuple[float, NDArray[np.float64]] | None = None
         self._configure_derived()
 
     # ---- configuration -------------------------------------------------------------------------
@@ -437,11 +443,14 @@ class Polarimeter(Sensor):
         """Draw the sensor's fixed pattern and the sea surface from this sensor's stream."""
         # The third stream (the unit's errors) is used only by a non-ideal budget, so an ideal
         # unit's fixed pattern and sea are what they were before the budget existed.
-        seeds = rng.spawn(3)
+        # The fourth (bubbles) leaves the first three as they were: SeedSequence children are
+        # numbered, so spawning one more does not change the others.
+        seeds = rng.spawn(4)
         self._dofp = self._new_sensor(seeds[0])
         sea = self._sea()
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
         self.unit = self.draw_unit(seeds[2]) if self.hardware.drawn else None
+        self._bubble_rng = seeds[3]
         self._last_t = None
         self.truth = None
 
@@ -516,6 +525,8 @@ class Polarimeter(Sensor):
             self.draw_unit(rng.spawn(1)[0])
         c = self._true_attitude(c)
         self._offline_waves(float(t), rng)
+        if self._bubble_rng is None and self._bubbles() is not None:
+            self._bubble_rng = rng.spawn(1)[0]  # after the others: theirs stay as they were
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):
             raise ValueError("sun: must be a SunPosition or a unit ENU vector")
@@ -553,6 +564,7 @@ class Polarimeter(Sensor):
         """Render, expose and read out one frame; its truth layers."""
         assert self._dofp is not None
         stokes, window, occluded, sun_look = self.render_stokes(world, pos, c_cn, depth_m, sun)
+        n_bubbles = self._add_bubbles(stokes, occluded, c_cn, depth_m, sun)
         exposure = self._dofp.exposure_for(stokes)
         raw = self._dofp.render_mosaic(stokes, exposure, rng)
         sun_px = None
@@ -564,9 +576,90 @@ class Polarimeter(Sensor):
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         night = bool(getattr(sun, "is_night", sun_enu[2] < math.sin(NIGHT_ELEVATION_RAD)))
         truth = PolarimeterTruth(
-            t, stokes, window, occluded, sun_px, sun_enu, depth_m, night, float(exposure)
+            t,
+            stokes,
+            window,
+            occluded,
+            sun_px,
+            sun_enu,
+            depth_m,
+            night,
+            float(exposure),
+            bubbles=n_bubbles,
         )
         return raw, truth
+
+    def _bubbles(self) -> bubbles_mod.BubblePopulation | None:
+        """This sea's bubble population, or None (ideal, a flat sea, or a tank: no breakers)."""
+        o = self.optics
+        if o.bubbles == "ideal" or o.wind_speed_mps <= 0.0 or self.tank is not None:
+            return None
+        return bubbles_mod.BubblePopulation(o.wind_speed_mps)
+
+    def _add_bubbles(
+        self,
+        st: FloatArray,
+        occluded: NDArray[np.bool_],
+        c_cn: NDArray[np.float64],
+        depth_m: float,
+        sun: Any,
+    ) -> int:
+        """Draw this frame's bubbles and add each to its pixel's S0 (photons/s), in place.
+
+        An unresolved point of intensity I at range r reads as the radiance I/(r² Ω) in a pixel
+        of solid angle Ω (outside the housing; :mod:`sensors.polarimeter.bubbles`). Unpolarized:
+        S1 = S2 = 0 in any basis. Bubbles on occluded pixels are dropped (the hull's shadow and
+        what lies behind it are not known). Returns how many were added.
+        """
+        pop = self._bubbles()
+        if pop is None or depth_m <= 0.0 or self._bubble_rng is None:
+            return 0
+        draw = pop.draw(depth_m, self._bubble_rng)
+        if draw.radii_m.size == 0:
+            return 0
+        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
+        beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
+        sky = self.optics.sky
+        e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
+        assert self._column is not None
+        intensity, r = bubbles_mod.bubble_radiance(
+            draw, beam.look_dir, e_sun, self._column.water.c_per_m
+        )
+        if self._caustics is not None:  # the beam's caustics light the bubbles too
+            cf, (x0, y0) = self._caustics
+            off = draw.offsets_m
+            intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)
+        dirs = (draw.offsets_m / r[:, None]) @ c_cn  # ENU → camera frame (rows: c_cnᵀ d)
+        u, v, ok = self.camera.project_outside(dirs, self.n_water)
+        h, w = self.camera.shape
+        col = np.rint(np.asarray(u)).astype(np.int64)
+        row = np.rint(np.asarray(v)).astype(np.int64)
+        ok = np.asarray(ok) & (col >= 0) & (col < w) & (row >= 0) & (row < h) & (intensity > 0)
+        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
+        ok = ~occluded[row, col]
+        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
+        omega = self._outside_solid_angle()[row, col]
+        add = intensity / (r * r * omega) * self._photon_scale
+        flat = st[..., 0].reshape(-1)
+        np.add.at(flat, row * w + col, add.astype(np.float32))
+        return int(col.size)
+
+    def _outside_solid_angle(self) -> NDArray[np.float64]:
+        """(H, W) each pixel's solid angle in the water, outside the housing.
+
+        A dome leaves the lens's rays unbent. Through a flat port the étendue n² cos θ dΩ is
+        conserved: Ω_out = Ω_lens cos θ_lens / (n² cos θ_out).
+        """
+        cam = self.camera
+        if self._omega_out is None or self._omega_out[0] != self.n_water:
+            sa = cam.pixel_solid_angle_sr.astype(np.float64)
+            if cam.spec.housing == "flat":
+                port = cam.outside(self.n_water)
+                cos_l = np.abs(cam.rays[..., 2].astype(np.float64))
+                cos_o = np.abs(port.directions[..., 2].astype(np.float64))
+                sa = sa * cos_l / np.maximum(self.n_water**2 * cos_o, 1e-9)
+            self._omega_out = (self.n_water, np.maximum(sa, 1e-12))
+        return self._omega_out[1]
 
     # ---- the physics chain ---------------------------------------------------------------------
     def render_stokes(
@@ -632,11 +725,45 @@ class Polarimeter(Sensor):
                 window_st = np.where(occluded[..., None], 0.0, window_st).astype(window_st.dtype)
             assert self._column is not None and fc.state is not None
             st = np.asarray(self._column.render(rays, fc.state, window_st, rotation=c_cn))
+            self._caustics = None
+            if self._waves is not None and o.flicker == "caustics" and fc.state.e_sun_normal > 0:
+                st = self._flicker(st, rays, c_cn, pos, depth_m, sun_enu, fc.state)
         st = self._to_sensor(st, c_cn, port)
         st *= valid[..., None]
         self._finish(st)
         self._truncate_paths(st, wall_m)
         return st, window, occluded, fc.sun_look
+
+    def _flicker(
+        self,
+        st: FloatArray,
+        rays: FloatArray,
+        c_cn: NDArray[np.float64],
+        pos: NDArray[np.float64],
+        depth_m: float,
+        sun_enu: NDArray[np.float64],
+        state: water_mod.ColumnState,
+    ) -> FloatArray:
+        """The single-scattered sun light scaled by each ray's caustic factor.
+
+        :mod:`sensors.polarimeter.caustics`: the factor is smooth across neighbouring rays (a
+        caustic cell, ~ℓ = 0.3 m, spans degrees at the ranges that matter), so it is computed on
+        every 4th pixel and resized. Keeps the frame's field for the bubbles it lights.
+        """
+        assert self._column is not None and self._waves is not None
+        c = self._column.water.c_per_m
+        cf = caustics_mod.CausticField(
+            self._waves, sun_enu, self.n_water, depth_m + 4.0 / max(c, 1e-3)
+        )
+        self._caustics = (cf, (float(pos[0]), float(pos[1])))
+        h, w = self.camera.shape
+        coarse = rays[::4, ::4]
+        look = coarse.reshape(-1, 3).astype(np.float64) @ c_cn.T
+        f = cf.ray_factor(look, self._caustics[1], depth_m, state.sun_look, c)
+        f = f.reshape(coarse.shape[:2]).astype(np.float32)
+        factor = cv2.resize(f, (w, h), interpolation=cv2.INTER_LINEAR)
+        ss = np.asarray(self._column.single_scattering(rays, state, rotation=c_cn))
+        return st + (factor - np.float32(1.0))[..., None] * ss
 
     def _truncate_paths(self, st: FloatArray, wall_m: NDArray[np.float64] | None) -> None:
         """Scale the path radiance of rays that end on a tank's black wall, in place.

@@ -15,7 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.base import SensorSpec
+from sensors.polarimeter import bubbles as bubbles_mod
 from sensors.polarimeter import camera as camera_mod
+from sensors.polarimeter import caustics as caustics_mod
 from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
@@ -37,6 +39,14 @@ class OpticsConfig:
         wavelength_nm: The one wavelength of the optics.
         wind_speed_mps: Wind at 12.5 m for Cox–Munk slopes; 0 = a flat sea.
         wind_toward_deg: Compass direction the wind blows toward.
+        bubbles: ``"hall_novarini"``: the breaking waves' bubbles near the surface, drawn per
+            frame as bright unpolarized points (:mod:`sensors.polarimeter.bubbles`; none on a
+            flat sea or in a tank); ``"ideal"``: none. Ideal by default here, so offline studies
+            see only what they ask for; a scenario's ``[optics]`` defaults to the real one.
+        flicker: ``"caustics"``: the waves focus the sun's beam into a moving net that the
+            water's sun-lit path radiance (and the bubbles) carry
+            (:mod:`sensors.polarimeter.caustics`; a flat sea has none); ``"ideal"``: the beam
+            stays uniform under the waves. Ideal by default here, as ``bubbles``.
     """
 
     sky: SkySpec = field(default_factory=SkySpec)
@@ -47,6 +57,8 @@ class OpticsConfig:
     wavelength_nm: float = 500.0
     wind_speed_mps: float = 0.0
     wind_toward_deg: float = 0.0
+    bubbles: str = "ideal"
+    flicker: str = "ideal"
 
     def __post_init__(self) -> None:
         if self.jerlov_type not in water_mod.JERLOV_TYPES:
@@ -56,6 +68,14 @@ class OpticsConfig:
         if not (math.isfinite(self.wind_toward_deg)):
             raise ValueError(
                 f"OpticsConfig.wind_toward_deg: {self.wind_toward_deg!r}; allowed: finite"
+            )
+        if self.bubbles not in bubbles_mod.BUBBLE_MODELS:
+            raise ValueError(
+                f"OpticsConfig.bubbles: {self.bubbles!r}; allowed: {bubbles_mod.BUBBLE_MODELS}"
+            )
+        if self.flicker not in caustics_mod.FLICKER_MODELS:
+            raise ValueError(
+                f"OpticsConfig.flicker: {self.flicker!r}; allowed: {caustics_mod.FLICKER_MODELS}"
             )
         # The stage constructors validate the rest (turbidity, index ranges, wind speed).
         water_mod.jerlov_water(self.jerlov_type, self.turbidity)
@@ -206,6 +226,7 @@ class PolarimeterTruth:
         depth_m: Camera depth below the surface (negative: in air).
         night: The sun was below the night threshold.
         exposure_us: Exposure used.
+        bubbles: How many bubbles were drawn into the frame (:mod:`sensors.polarimeter.bubbles`).
     """
 
     t: float
@@ -217,6 +238,7 @@ class PolarimeterTruth:
     depth_m: float
     night: bool
     exposure_us: float
+    bubbles: int = 0
 
 
 __all__ = ["OpticsConfig", "PolarimeterSpec", "PolarimeterTruth"]

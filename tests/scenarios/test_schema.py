@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 
 import scenarios
-from scenarios import Scenario, ScenarioError, load, load_scenario, parse_scenario, shipped
+from scenarios import Scenario, ScenarioError, load, load_scenario, parse_scenario, schema, shipped
 from scenarios.schema import (
     Current,
     HeadingLeg,
@@ -712,6 +712,8 @@ def test_optics_and_polarimeter_settings_validate_and_round_trip() -> None:
         ("wind_beaufort", 5.5, "optics.wind_beaufort"),
         ("wavelength_nm", 1000.0, "optics.wavelength_nm"),
         ("haze", 1.0, "optics.haze"),
+        ("bubbles", "foam", "optics.bubbles"),
+        ("flicker", 1, "optics.flicker"),
     ],
 )
 def test_bad_optics_name_the_field(key: str, value: object, field: str) -> None:
@@ -720,6 +722,29 @@ def test_bad_optics_name_the_field(key: str, value: object, field: str) -> None:
     with pytest.raises(ScenarioError) as info:
         parse_scenario(d)
     assert field in str(info.value)
+
+
+def test_bubbles_and_flicker_default_to_the_real_sea_and_reach_the_camera() -> None:
+    from sensors.polarimeter.bubbles import BUBBLE_MODELS
+    from sensors.polarimeter.caustics import FLICKER_MODELS
+    from twin.world.assembly import optics_config
+
+    assert schema.BUBBLE_MODELS == BUBBLE_MODELS and schema.FLICKER_MODELS == FLICKER_MODELS
+    d = load("default").to_dict()
+    d["optics"].update(wind_speed_mps=8.0)
+    d["optics"].pop("bubbles", None), d["optics"].pop("flicker", None)
+    s = parse_scenario(d)
+    assert (s.optics.bubbles, s.optics.flicker) == ("hall_novarini", "caustics")
+    cfg = optics_config(s)
+    assert (cfg.bubbles, cfg.flicker) == ("hall_novarini", "caustics")
+    d["optics"].update(bubbles="ideal", flicker="ideal")
+    cfg = optics_config(parse_scenario(d))
+    assert (cfg.bubbles, cfg.flicker) == ("ideal", "ideal")
+    # The tank scene has no breaking waves, whatever its wind: no bubbles, but the caustics.
+    tank = _base(TANK)
+    tank["optics"] = {"wind_speed_mps": 2.0}
+    cfg = optics_config(parse_scenario(tank))
+    assert (cfg.bubbles, cfg.flicker) == ("ideal", "caustics")
 
 
 def test_the_wind_may_be_a_beaufort_force_but_not_both() -> None:

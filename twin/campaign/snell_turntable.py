@@ -165,9 +165,16 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     if wind < 0:
         wind = tank_wind_mps(float(p["wind_beaufort"]))
     cam = sensors.create("polarimeter", "phx050s_p_fe185c046_bin4")
-    # South-west wind: blowing toward the north-east.
+    # South-west wind: blowing toward the north-east. The waves' caustics are the sea's (the
+    # tank has no breakers, so no bubbles: Polarimeter._bubbles).
     cam.configure(
-        OpticsConfig(jerlov_type=str(p["jerlov_type"]), wind_speed_mps=wind, wind_toward_deg=45.0)
+        OpticsConfig(
+            jerlov_type=str(p["jerlov_type"]),
+            wind_speed_mps=wind,
+            wind_toward_deg=45.0,
+            bubbles="hall_novarini",
+            flicker="caustics",
+        )
     )
     if p["hardware"] == "real":
         errors = dataclasses.replace(

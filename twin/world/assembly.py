@@ -96,6 +96,10 @@ def optics_config(scenario: Scenario) -> OpticsConfig:
         wavelength_nm=o.wavelength_nm,
         wind_speed_mps=o.wind_speed_mps,
         wind_toward_deg=o.wind_toward_deg,
+        # Breaking waves need fetch: the tank scene's sea has none, so no bubbles there (the
+        # offline tank trials get the same from Polarimeter.configure_tank).
+        bubbles="ideal" if scenario.scene == "tank" else o.bubbles,
+        flicker=o.flicker,
     )
 
 
