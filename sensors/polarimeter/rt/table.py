@@ -36,10 +36,12 @@ cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import math
 import os
+import secrets
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -478,13 +480,19 @@ def _shipped() -> dict[WaterKey, LightFieldTable]:
 
 
 def _save(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write atomically; an unwritable cache costs time, not correctness."""
+    """Write atomically; an unwritable cache costs time, not correctness.
+
+    The temporary name is this writer's own: campaign workers that compute the same table at
+    once each write their own file, and the last rename wins with an identical table.
+    """
+    tmp = path.with_name(f"{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp.npz")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
         np.savez_compressed(tmp, **arrays)
         tmp.replace(path)
     except OSError as e:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
         print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
 
 

@@ -197,3 +197,22 @@ def test_an_unwritable_cache_costs_time_not_correctness(tmp_path, monkeypatch, c
     assert np.all(np.isfinite(t.sun))
     assert "could not cache the table" in capsys.readouterr().err
     tb.table_for.cache_clear()
+
+
+def test_workers_caching_the_same_table_at_once_do_not_collide(tmp_path, capsys):
+    """Campaign workers compute a missing table together: each writes its own temporary file."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    path = tmp_path / "lightfield" / "same.npz"
+    arrays = {"x": np.arange(200_000, dtype=np.float64)}
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(lambda _: tb._save(path, arrays), range(16)))
+    assert "could not cache" not in capsys.readouterr().err
+    with np.load(path) as d:
+        np.testing.assert_array_equal(d["x"], arrays["x"])
+    assert [p.name for p in path.parent.iterdir()] == ["same.npz"]  # no temporaries left
+    # An unwritable cache costs time, not correctness: a clear line, nothing left behind.
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    tb._save(blocked / "t.npz", arrays)
+    assert "could not cache the table" in capsys.readouterr().err
