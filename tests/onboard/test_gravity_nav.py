@@ -1,0 +1,141 @@
+"""Gravity-aided navigation onboard: the PCRB, the A* planner, the comparison paths, SITAN."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twin.core.gravity_map import GravityGrid, OffMapError
+from twin.onboard.gravity.paths import bowed, comparison_family, lateral_offset_m, resample
+from twin.onboard.gravity.pcrb import (
+    GainsModel,
+    information_map,
+    observation_variance,
+    pcrb_along,
+    rmse_bound_m,
+)
+from twin.onboard.gravity.planner import UnreachableGoalError, plan
+from twin.onboard.gravity.sitan import monte_carlo, sitan_slope
+
+MODEL = GainsModel(sigma_mgal=2.0)
+
+
+def _grid(values_fn, nx=41, ny=41, d=1000.0) -> GravityGrid:
+    e, n = np.arange(nx) * d, np.arange(ny) * d
+    ee, nn = np.meshgrid(e, n)
+    return GravityGrid(e, n, values_fn(ee, nn))
+
+
+def test_a_flat_map_gives_no_information_and_the_ins_drift():
+    g = _grid(lambda e, n: np.zeros_like(e))
+    path = resample(np.array([[5000.0, 5000.0], [35_000.0, 5000.0]]), 31)
+    p = pcrb_along(g, path, MODEL)
+    # 30 legs of 1 km at 5 m/s: 200 s each at 100 m²/s per axis.
+    np.testing.assert_allclose(p[-1], np.eye(2) * (1e6 + 30 * 200 * 100.0))
+    assert np.all(information_map(g, 2.0) == 0)
+
+
+def test_on_a_sloping_map_the_bound_settles_along_the_slope_and_drifts_across_it():
+    gx = 5e-3  # 5 mGal/km along East
+    g = _grid(lambda e, n: gx * e)
+    path = resample(np.array([[5000.0, 20_000.0], [5000.0, 35_000.0]]), 16)  # 1 km legs
+    p = pcrb_along(g, path, MODEL)
+    q, r = 200.0 * 100.0, 4.0
+    # Scalar Riccati fixed point p = (p + q) r / ((p + q) g² + r).
+    a = gx**2
+    pe = (-a * q + math.sqrt((a * q) ** 2 + 4 * a * q * r)) / (2 * a)
+    assert p[-1, 0, 0] == pytest.approx(pe, rel=1e-3)
+    assert p[-1, 1, 1] == pytest.approx(1e6 + 15 * q)
+    np.testing.assert_allclose(information_map(g, 2.0)[5, 5], gx**2 / 4.0)
+    assert rmse_bound_m(p)[-1] == pytest.approx(math.sqrt(pe + 1e6 + 15 * q))
+
+
+def test_the_observation_variance_is_eq_3():
+    assert observation_variance(1.0, 0.0, 0.0, 1000.0, 2.0) == pytest.approx(5.0)
+    # C0 β² δ⁴ / 4 with C0 = 100 mGal², correlation distance 10 km (β = 1e-8 /m²), δ = 1 km.
+    assert observation_variance(0.0, 100.0, 1e-8, 1000.0, 0.0) == pytest.approx(2.5e-3)
+
+
+@pytest.mark.parametrize("field", ["speed_mps", "p0_m2", "q_rate_m2_per_s", "sigma_mgal"])
+def test_impossible_model_parameters_are_named(field):
+    with pytest.raises(ValueError, match=field):
+        GainsModel(**{field: 0.0})
+
+
+def _ridge(e, n):
+    # An informative ridge along North at East = 30 km, on an otherwise flat map.
+    return 40.0 * np.exp(-(((e - 30_000.0) / 3000.0) ** 2))
+
+
+def test_the_planned_path_costs_no_more_than_the_straight_one_and_detours_for_information():
+    g = _grid(_ridge)
+    start, goal = (10_000.0, 2000.0), (10_000.0, 38_000.0)
+    planned = plan(g, start, goal, MODEL)
+    # Its cost is the bound's Σ tr P along its own nodes.
+    p = pcrb_along(g, planned.nodes_m, MODEL)
+    assert planned.cost_m2 == pytest.approx(float(np.trace(p, axis1=1, axis2=2).sum()), rel=1e-9)
+    straight = np.stack([np.full(37, 10_000.0), np.arange(2, 39) * 1000.0], axis=1)
+    ps = pcrb_along(g, straight, MODEL)
+    assert planned.cost_m2 < float(np.trace(ps, axis1=1, axis2=2).sum())
+    assert planned.nodes_m[:, 0].max() > 20_000.0  # it goes to the ridge
+    assert planned.length_m > 36_000.0
+    np.testing.assert_array_equal(planned.nodes_m[0], start)
+    np.testing.assert_array_equal(planned.nodes_m[-1], goal)
+
+
+def test_the_planner_says_why_it_cannot_plan():
+    g = _grid(_ridge)
+    with pytest.raises(OffMapError, match="start"):
+        plan(g, (-5000.0, 0.0), (1000.0, 1000.0), MODEL)
+    with pytest.raises(OffMapError, match="goal"):
+        plan(g, (1000.0, 1000.0), (1000.0, 99_000.0), MODEL)
+    wall = np.zeros((41, 41), bool)
+    wall[20, :] = True
+    with pytest.raises(UnreachableGoalError, match="cannot be reached"):
+        plan(g, (1000.0, 1000.0), (1000.0, 39_000.0), MODEL, blocked=wall)
+    with pytest.raises(UnreachableGoalError, match="start"):
+        plan(g, (1000.0, 20_000.0), (1000.0, 39_000.0), MODEL, blocked=wall)
+    gap = wall.copy()
+    gap[20, 35] = False
+    through = plan(g, (1000.0, 1000.0), (1000.0, 39_000.0), MODEL, blocked=gap)
+    assert np.any(np.all(np.isclose(through.nodes_m, [35_000.0, 20_000.0]), axis=1))
+
+
+def test_paths_are_resampled_evenly_and_the_family_brackets_its_centre():
+    poly = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 4000.0]])
+    r = resample(poly, 8)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(r, axis=0), axis=1), 1000.0)
+    b = bowed((0.0, 0.0), (0.0, 10_000.0), 2000.0, n=101)
+    np.testing.assert_allclose(b[[0, -1]], [[0.0, 0.0], [0.0, 10_000.0]], atol=1e-9)
+    assert b[:, 0].min() == pytest.approx(-2000.0, rel=1e-3)  # left of a northward path: West
+    fam = comparison_family((0.0, 0.0), (0.0, 60_000.0), 7, 5500.0, around_m=-11_000.0)
+    assert list(fam) == ["Direct"] + [f"L{k}" for k in range(3, 10)]
+    bows = [lateral_offset_m(fam[f"L{k}"], (0, 0), (0, 60_000)) for k in range(3, 10)]
+    assert np.all(np.diff(bows) < 0)  # named from left to right
+    mids = np.array(bows) * math.pi / 2 / 5500.0
+    np.testing.assert_allclose(sorted(np.rint(mids)), [-5, -4, -3, -2, -1, 1, 2], atol=0)
+    with pytest.raises(ValueError, match="path"):
+        resample(np.zeros((1, 2)))
+
+
+def test_sitan_fits_a_planes_slope_exactly_at_any_window():
+    g = _grid(lambda e, n: 3e-3 * e - 2e-3 * n)
+    pts = np.full(5, 20_000.0)
+    h = sitan_slope(g, pts, pts, np.array([1, 2, 3, 5, 8]))
+    np.testing.assert_allclose(h, np.tile([3e-3, -2e-3], (5, 1)), rtol=1e-12)
+
+
+def test_on_a_linear_map_sitan_is_the_kalman_filter_and_reaches_the_bound():
+    g = _grid(lambda e, n: 4e-3 * e + 3e-3 * n, nx=81, ny=81)
+    path = resample(np.array([[20_000.0, 20_000.0], [60_000.0, 60_000.0]]), 40)
+    mc = monte_carlo(g, g, path, MODEL, np.random.default_rng(0), runs=4000)
+    # Same linear model, same noise: RMSE = √tr P within Monte Carlo error (~2 % at 4000 runs).
+    np.testing.assert_allclose(mc.rmse_m, mc.bound_m, rtol=0.06)
+    again = monte_carlo(g, g, path, MODEL, np.random.default_rng(0), runs=4000)
+    np.testing.assert_array_equal(again.rmse_m, mc.rmse_m)
+    with pytest.raises(OffMapError, match="path"):
+        monte_carlo(g, g, path + 50_000.0, MODEL, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="runs"):
+        monte_carlo(g, g, path, MODEL, np.random.default_rng(0), runs=0)

@@ -1,0 +1,1 @@
+"""Gravity-aided navigation on the vehicle computer: the bound, the planner, SITAN (wang2023)."""
