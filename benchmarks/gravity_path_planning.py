@@ -33,7 +33,7 @@ from twin.core.gravity_map import GravityGrid
 from twin.onboard.gravity.paths import comparison_family, lateral_offset_m, resample
 from twin.onboard.gravity.pcrb import GainsModel, information_map
 from twin.onboard.gravity.planner import plan
-from twin.onboard.gravity.sitan import monte_carlo
+from twin.scoring.gravity_matching import monte_carlo
 from twin.world.gravity import anomaly_grid, wang2023_seafloor
 
 RESULTS = Path(__file__).resolve().parent / "results"

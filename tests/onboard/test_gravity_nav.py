@@ -17,7 +17,8 @@ from twin.onboard.gravity.pcrb import (
     rmse_bound_m,
 )
 from twin.onboard.gravity.planner import UnreachableGoalError, plan
-from twin.onboard.gravity.sitan import monte_carlo, sitan_slope
+from twin.onboard.gravity.sitan import sitan_slope
+from twin.scoring.gravity_matching import monte_carlo
 
 MODEL = GainsModel(sigma_mgal=2.0)
 
