@@ -218,18 +218,12 @@ def test_ray_gives_the_local_pools_numbers(small_spec: Path, tmp_path: Path) -> 
 def test_a_campaign_runs_on_a_ray_head_node_at_its_address(
     small_spec: Path, tmp_path: Path, monkeypatch
 ) -> None:
-    import socket
     import sysconfig
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
     # A loopback-only cluster for the test: Ray's token authentication is switched off for it.
     monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
     ray_cli = str(Path(sysconfig.get_path("scripts")) / "ray")
-    start = [ray_cli, "start", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port)]
-    start += ["--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats"]
-    subprocess.run(start, check=True, capture_output=True, timeout=120)
+    port = _start_ray_head(ray_cli)
     try:
         spec = load_campaign(small_spec)
         counts = run_campaign(spec, tmp_path / "c", use_ray=True, ray_address=f"127.0.0.1:{port}")
@@ -237,6 +231,54 @@ def test_a_campaign_runs_on_a_ray_head_node_at_its_address(
         assert len(load_campaign_results(tmp_path / "c")) == 4
     finally:
         subprocess.run([ray_cli, "stop", "--force"], capture_output=True, timeout=120)
+
+
+def _free_ports(n: int) -> list[int]:
+    """``n`` distinct loopback ports that are free now (all bound at once, then released)."""
+    import socket
+
+    socks = [socket.socket() for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
+def _start_ray_head(ray_cli: str, tries: int = 3) -> int:
+    """Start a Ray head node on 127.0.0.1 and return its GCS port.
+
+    Every port of the head's own services is given explicitly. A GCS port drawn from the
+    ephemeral range once landed on 52365, the default port of the dashboard agent, and the head
+    could not start (CI, stop 23). The Ray client server's port is left alone (naming it starts
+    that server, which needs ``ray[client]``); workers take 10002–19999, below the ephemeral
+    range. A port can still be taken between drawing and binding, so a failed start is retried
+    with fresh ports; the last failure's own output is in the message.
+    """
+    names = (
+        "--port",
+        "--dashboard-agent-listen-port",
+        "--dashboard-agent-grpc-port",
+        "--runtime-env-agent-port",
+        "--metrics-export-port",
+        "--node-manager-port",
+        "--object-manager-port",
+    )
+    err = ""
+    for _ in range(tries):
+        ports = _free_ports(len(names))
+        start = [ray_cli, "start", "--head", "--node-ip-address", "127.0.0.1"]
+        for name, port in zip(names, ports, strict=True):
+            start += [name, str(port)]
+        start += ["--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats"]
+        done = subprocess.run(start, capture_output=True, text=True, timeout=120)
+        if done.returncode == 0:
+            return ports[0]
+        err = (done.stdout + done.stderr)[-2000:]
+        subprocess.run([ray_cli, "stop", "--force"], capture_output=True, timeout=120)
+    raise AssertionError(f"ray start --head failed {tries} times; last output:\n{err}")
 
 
 # ---- the report ---------------------------------------------------------------------------------
