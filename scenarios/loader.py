@@ -218,9 +218,13 @@ HARDWARE_RANGES: dict[str, Range] = {
     "focal_sigma_rel": Range(0.0, 0.2),
     "principal_point_sigma_px": Range(0.0, 200.0),
     "polarizer_sigma_deg": Range(0.0, 10.0),
+    "focal_tolerance_rel": Range(0.0, 0.2),
+    "decentre_sigma_um": Range(0.0, 1000.0),
     "boresight_sigma_deg": Range(0.0, 10.0),
     "clock_offset_sigma_ms": Range(0.0, 1000.0),
 }
+#: [hardware]'s on/off keys, with the position an ideal model gives them.
+HARDWARE_SWITCHES: dict[str, bool] = {"lens_compensation": False, "distortion_correction": True}
 GATE_PROBABILITY = Range(0.5, 1.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
 TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
@@ -1033,18 +1037,19 @@ def _hardware(t: _Table | None) -> Hardware | None:
                 )
                 values[key] = None
                 continue
-            if key == "lens_compensation":
+            if key in HARDWARE_SWITCHES:
                 values[key] = t.boolean(key, default=True)
             else:
                 values[key] = t.number(key, HARDWARE_RANGES[key], default=getattr(defaults, key))
     hardware = _build(Hardware, **values)
     t.finish()
     if hardware is not None:
-        # An ideal model's σ are 0 (and an ideal lens needs no compensation): nothing is drawn
-        # for it downstream.
+        # An ideal model's σ are 0 and its switches take their ideal position (an ideal lens
+        # needs no compensation; an exact calibration is a corrected one): nothing is drawn for
+        # it downstream.
         for model, sigmas in HARDWARE_SIGMAS.items():
             if getattr(hardware, model) == "ideal":
-                off = {k: (False if k == "lens_compensation" else 0.0) for k in sigmas}
+                off = {k: HARDWARE_SWITCHES.get(k, 0.0) for k in sigmas}
                 hardware = dataclasses.replace(hardware, **off)
     return hardware
 

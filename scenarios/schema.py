@@ -266,6 +266,11 @@ class Hardware:
         focal_sigma_rel: Relative 1σ of the onboard focal length.
         principal_point_sigma_px: 1σ of each principal-point coordinate (full-resolution px).
         polarizer_sigma_deg: 1σ of a common turn of the analyser layout (deg).
+        distortion_correction: The vehicle's camera geometry comes from the unit's calibration
+            session (xin2024 §2.4); False: from the lens's datasheet, an ideal equidistant
+            projection off the unit's true lens by the two tolerances below.
+        focal_tolerance_rel: 1σ of the datasheet focal length against the unit's (ISO 517).
+        decentre_sigma_um: 1σ of the optical axis off the sensor's centre, each axis (µm).
         mounting: ``"bracket"``: the camera is turned from the IMU by an unknown boresight and
             stamps its frames off the IMU's clock; ``"ideal"``: neither.
         boresight_sigma_deg: 1σ of each boresight rotation component (deg).
@@ -280,6 +285,9 @@ class Hardware:
     focal_sigma_rel: float = 0.003
     principal_point_sigma_px: float = 2.0
     polarizer_sigma_deg: float = 0.21
+    distortion_correction: bool = True
+    focal_tolerance_rel: float = 0.05 / math.sqrt(3.0)
+    decentre_sigma_um: float = 18.0
     mounting: str = "bracket"
     boresight_sigma_deg: float = 0.19
     clock_offset_sigma_ms: float = 5.0
@@ -477,7 +485,14 @@ def _current_dict(c: Current) -> dict[str, Any]:
 
 #: [hardware]: each model's σ keys (set only when the model is not ideal).
 HARDWARE_SIGMAS: dict[str, tuple[str, ...]] = {
-    "calibration": ("focal_sigma_rel", "principal_point_sigma_px", "polarizer_sigma_deg"),
+    "calibration": (
+        "focal_sigma_rel",
+        "principal_point_sigma_px",
+        "polarizer_sigma_deg",
+        "distortion_correction",
+        "focal_tolerance_rel",
+        "decentre_sigma_um",
+    ),
     "mounting": ("boresight_sigma_deg", "clock_offset_sigma_ms"),
     "lens": ("lens_compensation",),
 }

@@ -378,6 +378,16 @@ class _RadialModel:
         return self._ocam_dtheta(rho)
 
 
+#: The TUM VI benchmark's cam0 Kannala–Brandt coefficients (k1..k4, θ in rad): a measured fisheye
+#: departure from equidistant (Schubert et al. 2018, "The TUM VI Benchmark for Evaluating
+#: Visual-Inertial Odometry", IROS; the dataset's published camchain).
+TUM_VI_CAM0_KB: tuple[float, float, float, float] = (
+    0.0034823894022493434,
+    0.0007150348452162257,
+    -0.0020532361418706202,
+    0.00020293673591811182,
+)
+
 #: Camera presets. Sources: sensor facts optics.md §3.1; lenses §3.5 and the seed papers.
 PRESETS: dict[str, FisheyeSpec] = {
     # LUCID Phoenix PHX050S-P (Sony IMX250MZR, 2448x2048, 3.45 um) + Fujinon FE185C057HA-1, the
@@ -397,8 +407,13 @@ PRESETS: dict[str, FisheyeSpec] = {
         max_field_angle_deg=92.5,
     ),
     # The Snell-window paper's polarimeter (xin2024 §4.1): the same PHX050S-P with a Fujinon
-    # FE185C046HA-1, 185 deg, f = 1.4 mm (stated there), modelled as ideal equidistant like its
-    # sibling above (no distortion published): a 1310 px image circle on the 2048 rows.
+    # FE185C046HA-1, 185 deg, f = 1.4 mm (stated there): a ~1300 px image circle on the 2048 rows.
+    # Its departure from the equidistant projection is not published; the twin gives it the
+    # measured departure of another fisheye, the TUM VI benchmark's cam0 (Schubert et al. 2018,
+    # IROS; 195 deg; Kalibr's equidistant model, the same theta polynomial as here) [uncertain:
+    # another lens]: -1.0 % of the radius at 90 deg, +0.2 % at 45 deg. It matters only to a vehicle
+    # that does not correct distortion (sensors/polarimeter/hardware.py, distortion_correction):
+    # a calibrated unit knows it.
     "phx050s_fe185c046": FisheyeSpec(
         name="phx050s_fe185c046",
         width_px=2448,
@@ -407,6 +422,7 @@ PRESETS: dict[str, FisheyeSpec] = {
         projection="kannala_brandt",
         focal_length_mm=1.4,
         max_field_angle_deg=92.5,
+        kb_coeffs=TUM_VI_CAM0_KB,
     ),
     # Sony IMX264MZR board camera (same 2448x2048, 3.45 um array; slower readout, other noise)
     # with the same FE185C057HA-1 lens, as in the ROI-A seed (fang2024 Table 2). Same geometry.

@@ -11,6 +11,10 @@ seed, how the two differ:
 * **Mounting** (:class:`MountingError`): the camera's axes are turned from the IMU's by a small
   boresight rotation the vehicle does not know, and the camera's time stamps are off the IMU's
   clock by a constant offset.
+* **Lens tolerance** (:class:`LensTolerance`): a unit's lens departs from its datasheet (focal
+  length, centring on the sensor, the projection's shape). A calibration session measures the
+  unit's own lens, and the vehicle works with that (``distortion_correction``, xin2024 §2.4);
+  without it the vehicle has only the datasheet's nominal equidistant model.
 * **Lens** (:class:`sensors.polarimeter.lens.LensPolarization`): the lens's own diattenuation and
   retardance, growing with field angle (not drawn: the same for every unit of a lens design);
   with ``lens_compensation`` the unit is measured on the simulated bench of xin2024 §2.3
@@ -37,6 +41,16 @@ Defaults and their sources (σ are 1σ, per run):
 * ``boresight_sigma_deg = 0.19`` per axis: ISO 2768-1 general tolerance, class m ("medium"), for
   an un-toleranced angle on a part with a 50–120 mm leg (a camera bracket): ±20′ = ±0.33°, read as
   a uniform bound, σ = 0.33°/√3.
+* ``focal_tolerance_rel = 0.0289``: ISO 517 lets a lens's marked focal length differ from the
+  real one by ±5 %; read as a uniform bound, σ = 5 %/√3. Used only without distortion correction.
+* ``decentre_sigma_um = 18``: the optical axis off the sensor's centre. The TUM VI benchmark's
+  two calibrated fisheye units (Schubert et al. 2018, IROS, cam0/cam1 of its camchain: principal
+  points (254.93, 256.90) and (252.60, 254.92) px on 512 × 512 frames of 10.6 µm binned pixels)
+  sit 6–31 µm off centre, RMS 18 µm per axis [uncertain: two units of another camera]. Used only
+  without distortion correction.
+* The departure of a lens's projection from equidistant is the world camera's own
+  (``FisheyeSpec.kb_coeffs``, set per preset where a source gives one); without distortion
+  correction the vehicle takes the projection to be ideal equidistant.
 * ``clock_offset_sigma_ms = 5.0`` [uncertain]: host time stamps of GigE/USB frames on the seeds'
   computers (hu2024: a Jetson Nano) without PTP sync, after the nominal transfer time is removed;
   the seeds do not state how they stamp frames.
@@ -120,6 +134,47 @@ class CalibrationUncertainty:
 
 
 @dataclass(frozen=True, slots=True)
+class LensTolerance:
+    """How a unit's lens departs from its datasheet (1σ per unit; module docstring).
+
+    The twin keeps the world camera as the unit's true lens and draws the datasheet's nominal
+    model *from* it: the relative error, which is all a compass sees, is the same either way.
+
+    Attributes:
+        focal_tolerance_rel: Relative error of the datasheet focal length.
+        decentre_sigma_um: Offset of the optical axis from the sensor's centre, each axis (µm).
+    """
+
+    focal_tolerance_rel: float = 0.05 / math.sqrt(3.0)
+    decentre_sigma_um: float = 18.0
+
+    def __post_init__(self) -> None:
+        _sigma("calibration", "focal_tolerance_rel", self.focal_tolerance_rel, 0.2)
+        _sigma("calibration", "decentre_sigma_um", self.decentre_sigma_um, 1000.0)
+
+    def nominal(self, true: CameraCalibration, rng: np.random.Generator) -> CameraCalibration:
+        """The datasheet's model of a unit whose true lens is ``true``.
+
+        Equidistant (no Kannala–Brandt terms), the datasheet focal length and the optical axis at
+        the sensor's centre. Three standard normals are always drawn (f, u, v).
+
+        Args:
+            true: The exact calibration of the world's camera (frame pixels; its pixel pitch is
+                the frame's, binning included).
+            rng: The unit's generator for its lens tolerances.
+        """
+        z = rng.standard_normal(3)
+        cu, cv = true.principal_point_px
+        d_px = self.decentre_sigma_um / true.pixel_pitch_um  # µm on the sensor → frame pixels
+        return dataclasses.replace(
+            true,
+            focal_px=true.focal_px * (1.0 + self.focal_tolerance_rel * float(z[0])),
+            principal_point_px=(cu + d_px * float(z[1]), cv + d_px * float(z[2])),
+            kb_coeffs=(0.0, 0.0, 0.0, 0.0),
+        )
+
+
+@dataclass(frozen=True, slots=True)
 class MountingError:
     """How the camera sits on the vehicle, against what the vehicle believes (1σ per run).
 
@@ -170,12 +225,17 @@ class HardwareErrors:
     """The whole error budget of a polarimeter unit (scenario table ``[hardware]``).
 
     The default is a real unit with every model at its sourced default (module docstring).
+    ``distortion_correction`` (xin2024 §2.4): the vehicle's geometric model of the camera comes
+    from a calibration session of the unit (``calibration``'s errors apply); False: from the
+    datasheet (``tolerance``'s errors apply, and the projection is taken as ideal equidistant).
     """
 
     calibration: CalibrationUncertainty = dataclasses.field(default_factory=CalibrationUncertainty)
     mounting: MountingError = dataclasses.field(default_factory=MountingError)
     lens: LensPolarization = dataclasses.field(default_factory=LensPolarization)
     lens_compensation: bool = True
+    tolerance: LensTolerance = dataclasses.field(default_factory=LensTolerance)
+    distortion_correction: bool = True
 
     @classmethod
     def ideal(cls) -> HardwareErrors:
@@ -190,7 +250,8 @@ class HardwareErrors:
     @property
     def drawn(self) -> bool:
         """Whether a unit is drawn per run (calibration or mounting errors, a bench session)."""
-        return not (self.calibration.is_ideal and self.mounting.is_ideal) or self.benched
+        exact = self.calibration.is_ideal and self.distortion_correction
+        return not (exact and self.mounting.is_ideal) or self.benched
 
     @property
     def is_ideal(self) -> bool:
@@ -198,9 +259,16 @@ class HardwareErrors:
 
     def draw(self, true: CameraCalibration, binning: int, rng: np.random.Generator) -> HardwareUnit:
         """One unit as built and calibrated, from the run's generator for it."""
-        cal_rng, mount_rng = rng.spawn(2)
+        # A third child for the lens tolerances: SeedSequence children are numbered, so the first
+        # two (and a seed's calibration and mounting errors) are what they were without it.
+        cal_rng, mount_rng, tol_rng = rng.spawn(3)
         boresight, offset = self.mounting.draw(mount_rng)
-        return HardwareUnit(self.calibration.draw(true, binning, cal_rng), boresight, offset)
+        cal = self.calibration.draw(true, binning, cal_rng)
+        nominal = self.tolerance.nominal(true, tol_rng)
+        if not self.distortion_correction:
+            # The datasheet's geometry; the analysers' orientation still comes from the bench.
+            cal = dataclasses.replace(nominal, layout_deg=cal.layout_deg, lens_table=cal.lens_table)
+        return HardwareUnit(cal, boresight, offset)
 
 
 @dataclass(frozen=True)
@@ -230,5 +298,6 @@ __all__ = [
     "CalibrationUncertainty",
     "HardwareErrors",
     "HardwareUnit",
+    "LensTolerance",
     "MountingError",
 ]

@@ -42,6 +42,7 @@ def test_milk_scattering_from_anomalous_diffraction():
         ("snell_turntable", {"wind_beaufort": 13}, "wind_beaufort"),
         ("snell_turntable", {"depth_m": 0.5, "tank_water_depth_m": 0.4}, "depth_m"),
         ("snell_turntable", {"tank_wind_mps": -3.0}, "tank_wind_mps"),
+        ("snell_turntable", {"distortion_correction": "off"}, "distortion_correction"),
         ("roia_static", {"case": "lake"}, "case"),
         ("roia_static", {"hardware": "perfect"}, "hardware"),
         ("lig_tank", {"depth_m": 1.5}, "depth_m"),
@@ -55,7 +56,7 @@ def test_bad_parameters_name_the_field(trial, params, field):
 
 
 def test_the_campaign_specs_resolve():
-    for name, runs in (("snell_turntable", 160), ("roia_static", 80), ("lig_tank", 20)):
+    for name, runs in (("snell_turntable", 200), ("roia_static", 80), ("lig_tank", 20)):
         spec = load_campaign(f"scenarios/campaigns/{name}.toml")
         assert len(spec.runs) == runs and len(spec.seeds) >= 20
     assert len(load_campaign("scenarios/campaigns/lig_sea_trials.toml").runs) == 40

@@ -28,8 +28,13 @@ What the paper does not state, and what the twin assumes [uncertain]:
   wind overstates them [uncertain: no tank slope measurement to take instead].
 * The camera is binned 4×4 (612×512) for speed: the Snell method works on a 4×4-binned frame
   anyway; on-sensor binning has less read noise than the paper's software binning would.
-* The distortion ablation is not run: FE185C046HA-1's distortion is not published, so the twin's
-  lens is ideal equidistant and its onboard model is exact — there is nothing to correct.
+* The distortion ablation (§2.4, §3.2): FE185C046HA-1's departure from the equidistant projection
+  is not published; the preset lens has the TUM VI fisheye's (sensors/polarimeter/camera.py).
+  "Without distortion correction" is read as the vehicle working with the lens's datasheet model
+  (equidistant, f = 1.4 mm, the optical axis at the sensor's centre) instead of the unit's
+  calibration; the unit's lens is off that model by ISO 517's focal-length tolerance and a
+  decentre (sensors/polarimeter/hardware.py, LensTolerance). The paper does not say what model
+  its uncorrected runs used [uncertain].
 """
 
 from __future__ import annotations
@@ -70,6 +75,10 @@ SESSIONS_LOCAL = (
 TILTS_DEG = (-45.0, -35.0, -25.0, -15.0, 15.0, 25.0, 35.0, 45.0)
 #: The paper's Table 1 means (MAE, deg).
 PAPER_MAE_DEG = {"roll": 0.7544, "pitch": 0.6213, "yaw": 0.5303}
+#: What the paper's distortion correction gained (deg): roll and pitch in its tank under waves
+#: (§3.2: "improved by 2.4732° and 1.8365° on average"); yaw on its telecentric bench (§2.4: MAE
+#: 1.8425/1.2632/0.9647° without, 0.1397/0.1344/0.1517° with, "1.2149° on average").
+PAPER_DISTORTION_GAIN_DEG = {"roll": 2.4732, "pitch": 1.8365, "yaw": 1.2149}
 Z0_GROUND_M = 0.03
 Z0_SEA_M = 2e-4
 TANK_SURFACE_HEIGHT_M = 1.0
@@ -85,27 +94,30 @@ def tank_wind_mps(beaufort: float) -> float:
     return u_tank * math.log(12.5 / Z0_SEA_M) / math.log(TANK_SURFACE_HEIGHT_M / Z0_SEA_M)
 
 
-#: The ablation's cells: (hardware, lens_compensation, sea state). The sea state is a Beaufort
-#: force carried to the tank (``tank_wind_mps``) or, for the sensitivity cells, the Cox–Munk
-#: wind itself in m/s ("m/s:2"). "budget" is the paper's conditions with the twin's full error
-#: budget; the others take one part away or change the tank's roughness.
-CASES: dict[str, tuple[str, bool, str]] = {
-    "budget": ("real", True, "force:5.5"),
-    "no_lens_compensation": ("real", False, "force:5.5"),
-    "waves_only": ("ideal", True, "force:5.5"),
-    "hardware_only": ("real", True, "m/s:0"),
-    "hardware_only_no_lens_compensation": ("real", False, "m/s:0"),
-    "budget_tank_wind_1": ("real", True, "m/s:1"),
-    "budget_tank_wind_2": ("real", True, "m/s:2"),
-    "budget_tank_wind_4": ("real", True, "m/s:4"),
+#: The ablation's cells: (hardware, lens_compensation, distortion_correction, sea state). The
+#: sea state is a Beaufort force carried to the tank (``tank_wind_mps``) or, for the sensitivity
+#: cells, the Cox–Munk wind itself in m/s ("m/s:2"). "budget" is the paper's conditions with the
+#: twin's full error budget; the others take one part away or change the tank's roughness.
+CASES: dict[str, tuple[str, bool, bool, str]] = {
+    "budget": ("real", True, True, "force:5.5"),
+    "no_lens_compensation": ("real", False, True, "force:5.5"),
+    "no_distortion_correction": ("real", True, False, "force:5.5"),
+    "waves_only": ("ideal", True, True, "force:5.5"),
+    "hardware_only": ("real", True, True, "m/s:0"),
+    "hardware_only_no_lens_compensation": ("real", False, True, "m/s:0"),
+    "hardware_only_no_distortion_correction": ("real", True, False, "m/s:0"),
+    "budget_tank_wind_1": ("real", True, True, "m/s:1"),
+    "budget_tank_wind_2": ("real", True, True, "m/s:2"),
+    "budget_tank_wind_4": ("real", True, True, "m/s:4"),
 }
 
 DEFAULTS: dict[str, Any] = {
-    "case": "",  # one of CASES (sets hardware, lens_compensation and the sea state), or ""
+    "case": "",  # one of CASES (sets the hardware, its two corrections and the sea state), or ""
     "wind_beaufort": 5.5,
     "tank_wind_mps": -1.0,  # ≥ 0: the Cox–Munk wind on the tank itself (wind_beaufort unused)
     "hardware": "real",  # "real": the sourced error budget; "ideal": none
     "lens_compensation": True,
+    "distortion_correction": True,
     "depth_m": 0.1,
     "tank_diameter_m": 0.6,
     "tank_water_depth_m": 0.4,
@@ -116,7 +128,7 @@ DEFAULTS: dict[str, Any] = {
 def _resolved(p: Mapping[str, Any]) -> dict[str, Any]:
     q = dict(p)
     if q.get("case"):
-        q["hardware"], q["lens_compensation"], sea = CASES[q["case"]]
+        q["hardware"], q["lens_compensation"], q["distortion_correction"], sea = CASES[q["case"]]
         kind, value = sea.split(":")
         if kind == "force":
             q["wind_beaufort"], q["tank_wind_mps"] = float(value), -1.0
@@ -138,8 +150,9 @@ def check(p: Mapping[str, Any]) -> list[str]:
         errs.append(f"tank_wind_mps: {w!r}; allowed: -1 (from wind_beaufort) or [0, 30] m/s")
     if p.get("hardware") not in ("real", "ideal"):
         errs.append(f"hardware: {p.get('hardware')!r}; allowed: 'real', 'ideal'")
-    if not isinstance(p.get("lens_compensation"), bool):
-        errs.append(f"lens_compensation: {p.get('lens_compensation')!r}; allowed: true, false")
+    for key in ("lens_compensation", "distortion_correction"):
+        if not isinstance(p.get(key), bool):
+            errs.append(f"{key}: {p.get(key)!r}; allowed: true, false")
     for key in ("depth_m", "tank_diameter_m", "tank_water_depth_m"):
         v = p.get(key)
         if not (isinstance(v, int | float) and not isinstance(v, bool) and 0 < v <= 100):
@@ -178,7 +191,9 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     )
     if p["hardware"] == "real":
         errors = dataclasses.replace(
-            HardwareErrors(), lens_compensation=bool(p["lens_compensation"])
+            HardwareErrors(),
+            lens_compensation=bool(p["lens_compensation"]),
+            distortion_correction=bool(p["distortion_correction"]),
         )
     else:
         errors = HardwareErrors.ideal()

@@ -32,9 +32,10 @@ SUN = SUN / np.linalg.norm(SUN)
 
 def test_the_scenario_defaults_are_the_modules_sourced_defaults():
     h = Hardware()
-    cal, mount = CalibrationUncertainty(), MountingError()
+    cal, mount, errs = CalibrationUncertainty(), MountingError(), HardwareErrors()
     for key in HARDWARE_SIGMAS["calibration"]:
-        assert getattr(h, key) == getattr(cal, key)
+        owner = next(o for o in (cal, errs.tolerance, errs) if hasattr(o, key))
+        assert getattr(h, key) == getattr(owner, key)
     for key in HARDWARE_SIGMAS["mounting"]:
         assert getattr(h, key) == getattr(mount, key)
     assert hardware_errors(h) == HardwareErrors()

@@ -571,7 +571,12 @@ class SnellWindowMethod(CompassMethod):
         g = grey[valid]
         if g.size == 0:
             return "no valid pixels in the image circle"
-        p_lo, p_hi = np.percentile(g, [1.0, 99.9])
+        # The dark end of the *scene*: pixels at or below 1 DN are the floor the log range is
+        # clamped to anyway, and they include the unlit ring that an onboard model with too long a
+        # focal length believes inside its image circle (a 1 % error put 5 % of the "circle" at
+        # 0 DN, dragged the 1st percentile to the floor and the threshold into the sea: roll 0°).
+        g_lit = g[g > 1.0]
+        p_lo, p_hi = np.percentile(g_lit if g_lit.size else g, [1.0, 99.9])
         lo, hi = max(float(p_lo), 1.0), max(float(p_hi), 1.0)
         if hi < cfg.min_signal_dn:
             return f"frame too dark (99.9th percentile {hi:.1f} DN < {cfg.min_signal_dn:g})"
