@@ -29,6 +29,7 @@ from scenarios.schema import (
     CALIBRATION_MODELS,
     CURRENT_KINDS,
     FLICKER_MODELS,
+    GRAVITY_MAPS,
     HARDWARE_SIGMAS,
     JERLOV_TYPES,
     LENS_MODELS,
@@ -36,6 +37,7 @@ from scenarios.schema import (
     MOUNTING_MODELS,
     NAV_TUNINGS,
     NAV_VARIANTS,
+    PARTICLE_MODELS,
     SCENES,
     SKY_POLARIZATION_MODELS,
     SUN_MEASUREMENTS,
@@ -45,6 +47,7 @@ from scenarios.schema import (
     TANK_WIDTH_M,
     Autopilot,
     Current,
+    Gravity,
     Hardware,
     HeadingLeg,
     Initial,
@@ -226,6 +229,10 @@ HARDWARE_RANGES: dict[str, Range] = {
 #: [hardware]'s on/off keys, with the position an ideal model gives them.
 HARDWARE_SWITCHES: dict[str, bool] = {"lens_compensation": False, "distortion_correction": True}
 GATE_PROBABILITY = Range(0.5, 1.0)
+MAP_SIZE_KM = Range(1.0, 1000.0)
+MAP_SPACING_M = Range(10.0, 20_000.0)
+MAP_POSITION_KM = Range(0.0, 1000.0)
+MAP_ERROR_MGAL = Range(0.0, 100.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
 TANK_EAST_M = Range(-TANK_LENGTH_M / 2, TANK_LENGTH_M / 2, lo_open=True, hi_open=True)
 TANK_NORTH_M = Range(-TANK_WIDTH_M / 2, TANK_WIDTH_M / 2, lo_open=True, hi_open=True)
@@ -464,6 +471,17 @@ class _Table:
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value
         return _vec2(self.report, self.at(key), raw)
+
+    def pair(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+        """Two numbers ``[a, b]``, each in ``allowed`` (None when a check failed)."""
+        raw = self._raw(key, default, f"[a, b], two numbers in {allowed}")
+        if raw is _MISSING or isinstance(raw, _Default):
+            return None if raw is _MISSING else raw.value
+        v = _vec2(self.report, self.at(key), raw)
+        if v is None:
+            return None
+        ok = [_number(self.report, f"{self.at(key)}[{i}]", x, allowed) for i, x in enumerate(v)]
+        return None if any(x is None for x in ok) else (float(v[0]), float(v[1]))
 
     def table(
         self, key: str, *, required: bool = False, expected: str = "a table"
@@ -882,11 +900,58 @@ def _sensors(t: _Table | None) -> Sensors | None:
         # "" stands for "no polarimeter" here: _build treats None as a failed check.
         polarimeter=t.string("polarimeter", non_empty=True, default=""),
         polarimeter_overrides=_overrides(t.table("polarimeter_overrides")),
+        gravimeter=t.string("gravimeter", non_empty=True, default=""),
+        gravimeter_overrides=_overrides(t.table("gravimeter_overrides")),
     )
     t.finish()
     if sensors is not None and sensors.polarimeter == "":
         sensors = dataclasses.replace(sensors, polarimeter=None)
+    if sensors is not None and sensors.gravimeter == "":
+        sensors = dataclasses.replace(sensors, gravimeter=None)
     return sensors
+
+
+_NO_LAUNCH: Any = object()  # launch_km absent: the map's centre
+
+
+def _gravity(t: _Table | None) -> Gravity | None:
+    if t is None:
+        return None
+    gravity = _build(
+        Gravity,
+        map=t.string("map", choices=GRAVITY_MAPS, default="none"),
+        file=t.string("file", default=""),
+        variable=t.string("variable", default=""),
+        size_km=t.pair("size_km", MAP_SIZE_KM, default=(40.0, 40.0)),
+        spacing_m=t.number("spacing_m", MAP_SPACING_M, default=500.0),
+        map_seed=t.integer("map_seed", NON_NEGATIVE, default=0),
+        stored_spacing_m=t.number("stored_spacing_m", MAP_SPACING_M, default=1000.0),
+        map_error_mgal=t.number("map_error_mgal", MAP_ERROR_MGAL, default=1.7),
+        matching=t.boolean("matching", default=True),
+    )
+    launch = t.pair("launch_km", MAP_POSITION_KM, default=_NO_LAUNCH)
+    t.finish()
+    if gravity is None or launch is None:
+        return None
+    if launch is not _NO_LAUNCH:
+        gravity = dataclasses.replace(gravity, launch_km=launch)
+    if gravity.map == "file" and not gravity.file:
+        t.report.add(t.at("file"), 'missing; required with map = "file": a NetCDF/GeoTIFF path')
+    if gravity.map == "seafloor":
+        ratio = gravity.stored_spacing_m / gravity.spacing_m
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            t.report.add(
+                t.at("stored_spacing_m"),
+                f"{_show(gravity.stored_spacing_m)} is not a whole multiple of spacing_m = "
+                f"{_show(gravity.spacing_m)}; the stored map is every k-th node of the field",
+            )
+        if min(gravity.size_km) * 1000.0 < 4 * gravity.stored_spacing_m:
+            t.report.add(
+                t.at("size_km"),
+                f"{list(gravity.size_km)} km holds fewer than 4 stored-map nodes a side "
+                f"(stored_spacing_m = {_show(gravity.stored_spacing_m)}); allowed: larger",
+            )
+    return gravity
 
 
 def _optics(t: _Table | None) -> Optics | None:
@@ -909,6 +974,7 @@ def _optics(t: _Table | None) -> Optics | None:
         wavelength_nm=t.number("wavelength_nm", WAVELENGTH_NM, default=500.0),
         bubbles=t.string("bubbles", choices=BUBBLE_MODELS, default="hall_novarini"),
         flicker=t.string("flicker", choices=FLICKER_MODELS, default="caustics"),
+        particles=t.string("particles", choices=PARTICLE_MODELS, default="marine_snow"),
     )
     t.finish()
     return optics
@@ -1222,6 +1288,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     recording = _recording(top.table("recording"))
     navigation = _navigation(top.table("navigation"))
     hardware = _hardware(top.table("hardware"))
+    gravity = _gravity(top.table("gravity"))
     top.finish()
     _cross_checks(report, scene)
     _navigation_checks(report, navigation, sensors, autopilot)
@@ -1247,6 +1314,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         recording=recording,
         navigation=navigation,
         hardware=hardware,
+        gravity=gravity,
     )
     # Every None above was reported; reaching here without a scenario is a bug in this module.
     assert scenario is not None, "unreported validation failure"

@@ -201,11 +201,16 @@ class Sensors:
     # the expensive sensor; trials about the vehicle alone run faster without it).
     polarimeter: str | None = None
     polarimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+    # The marine gravimeter (sensors.gravimeter): a preset name, or None. It needs a
+    # [gravity] map.
+    gravimeter: str | None = None
+    gravimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
 
 
 SKY_POLARIZATION_MODELS: tuple[str, ...] = ("rayleigh", "berry")
 BUBBLE_MODELS: tuple[str, ...] = ("hall_novarini", "ideal")  # sensors.polarimeter.bubbles
 FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")  # sensors.polarimeter.caustics
+PARTICLE_MODELS: tuple[str, ...] = ("marine_snow", "ideal")  # sensors.polarimeter.particles
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,6 +237,9 @@ class Optics:
         flicker: ``"caustics"``: the waves focus the sun's beam into the moving net that the
             water's sun-lit light carries (``sensors.polarimeter.caustics``); ``"ideal"``: a
             uniform beam under the waves.
+        particles: ``"marine_snow"``: suspended aggregates through the water column, bright
+            unpolarized points in the camera's view (``sensors.polarimeter.particles``; none in
+            the tank scene); ``"ideal"``: none.
     """
 
     cie_sky_type: int = 12
@@ -245,6 +253,49 @@ class Optics:
     wavelength_nm: float = 500.0
     bubbles: str = "hall_novarini"
     flicker: str = "caustics"
+    particles: str = "marine_snow"
+
+
+GRAVITY_MAPS: tuple[str, ...] = ("none", "seafloor", "wang2023", "file")
+
+
+@dataclass(frozen=True, slots=True)
+class Gravity:
+    """The gravity field of the operating area and the vehicle's stored map of it (wang2023).
+
+    World side: the field (``twin.world.gravity``); onboard: the stored map the vehicle carries
+    (``twin.onboard.gravity.matching``), the field at a coarser spacing with the map's error.
+
+    Attributes:
+        map: ``"none"``; ``"seafloor"``: a synthetic abyssal seafloor of ``size_km`` forward
+            modelled at ``spacing_m`` (seeded by ``map_seed``); ``"wang2023"``: the 100 × 100 km
+            map of the PCRB study's tests (``twin.world.gravity.wang2023_seafloor``, 1 km);
+            ``"file"``: a NetCDF/GeoTIFF grid (``file``, ``variable``) resampled to ``spacing_m``.
+        file: Path of the grid file (``map = "file"``), relative to the scenario's folder.
+        variable: Its data variable ('' = the only one).
+        size_km: (East, North) extent of a ``"seafloor"`` map.
+        spacing_m: Node spacing of the world's field (``"seafloor"``, ``"file"``).
+        map_seed: Seed of the synthetic seafloor (the area is the same for every run).
+        launch_km: Where the launch point (the scenario's place, ENU origin) lies on the map
+            (East, North, km from the map's lower-left corner); None = the map's centre.
+        stored_spacing_m: Node spacing δ of the vehicle's stored map: every k-th node of the
+            field (a multiple of the field's spacing).
+        map_error_mgal: 1σ error of the stored map's nodes, σ_m (wang2023: its Sandwell region
+            "better than 1.7 mGal"), drawn per run; also what the vehicle is told.
+        matching: The navigation filters fuse the gravimeter against the stored map (needs
+            ``sensors.gravimeter``).
+    """
+
+    map: str = "none"
+    file: str = ""
+    variable: str = ""
+    size_km: Vec2 = (40.0, 40.0)
+    spacing_m: float = 500.0
+    map_seed: int = 0
+    launch_km: Vec2 | None = None
+    stored_spacing_m: float = 1000.0
+    map_error_mgal: float = 1.7
+    matching: bool = True
 
 
 CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")
@@ -398,6 +449,7 @@ class Scenario:
     recording: Recording = field(default_factory=Recording)
     navigation: Navigation = field(default_factory=Navigation)
     hardware: Hardware = field(default_factory=Hardware)
+    gravity: Gravity = field(default_factory=Gravity)
 
     def utc_at(self, t_s: float) -> datetime:
         """The UTC instant of simulation time ``t_s`` (seconds since the start)."""
@@ -451,12 +503,23 @@ class Scenario:
                     if self.sensors.polarimeter is not None
                     else {}
                 ),
+                **(
+                    {
+                        "gravimeter": self.sensors.gravimeter,
+                        "gravimeter_overrides": {
+                            k: _plain(v) for k, v in self.sensors.gravimeter_overrides
+                        },
+                    }
+                    if self.sensors.gravimeter is not None
+                    else {}
+                ),
             },
             "optics": _plain(self.optics),
             "autopilot": _plain(self.autopilot),
             "recording": _plain(self.recording),
             "navigation": {k: v for k, v in _plain(self.navigation).items() if v is not None},
             "hardware": _hardware_dict(self.hardware),
+            "gravity": {k: v for k, v in _plain(self.gravity).items() if v is not None},
         }
         if self.water.seabed_depth_m is None:
             del out["water"]["seabed_depth_m"]

@@ -12,7 +12,12 @@ _REGISTRY: dict[str, type[Sensor]] = {}
 
 # Modules that hold the built-in sensors; imported lazily so that importing the registry is cheap
 # and a sensor with heavy dependencies costs nothing until it is used.
-_BUILTIN_MODULES = ("sensors.imu", "sensors.depth", "sensors.polarimeter.render")
+_BUILTIN_MODULES = (
+    "sensors.imu",
+    "sensors.depth",
+    "sensors.gravimeter",
+    "sensors.polarimeter.render",
+)
 
 
 def register(cls: type[Sensor]) -> type[Sensor]:

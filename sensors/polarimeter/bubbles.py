@@ -204,14 +204,19 @@ def bubble_radiance(
     sun_look: NDArray[np.float64],
     e_sun_normal: float,
     c_per_m: float,
+    *,
+    g: float = HG_G,
+    albedo: float = 1.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Each drawn bubble's radiant intensity towards the camera and its range.
+    """Each drawn point's radiant intensity towards the camera and its range.
 
     Args:
-        draw: The frame's bubbles.
+        draw: The frame's bubbles (or other point scatterers: ``sensors.polarimeter.particles``).
         sun_look: (3,) ENU direction towards the refracted sun (in water).
         e_sun_normal: The refracted beam's normal irradiance just below the surface.
         c_per_m: The water's beam attenuation.
+        g: The points' Henyey–Greenstein asymmetry (a bubble's by default).
+        albedo: Their single-scattering albedo (an air bubble absorbs nothing).
 
     Returns:
         (I e^(−c r) per bubble, in the irradiance's units per sr; r in m).
@@ -225,7 +230,7 @@ def bubble_radiance(
     # Beam travels along −s; the light to the camera along −d: cos Θ = s · d.
     cos_t = np.clip(d @ s, -1.0, 1.0)
     e_z = e_sun_normal * np.exp(-c_per_m * draw.depths_m / mu_s)
-    intensity = e_z * math.pi * draw.radii_m**2 * hg_phase(cos_t)
+    intensity = e_z * albedo * math.pi * draw.radii_m**2 * hg_phase(cos_t, g)
     return intensity * np.exp(-c_per_m * r), r
 
 

@@ -57,6 +57,7 @@ from sensors.polarimeter import camera as camera_mod
 from sensors.polarimeter import caustics as caustics_mod
 from sensors.polarimeter import lens as lens_mod
 from sensors.polarimeter import mosaic as mosaic_mod
+from sensors.polarimeter import particles as particles_mod
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import tank as tank_mod
@@ -286,6 +287,7 @@ class Polarimeter(Sensor):
         self._dofp: mosaic_mod.DoFPSensor | None = None
         self._waves: surface_mod.WaveSurface | None = None
         self._bubble_rng: np.random.Generator | None = None
+        self._particle_rng: np.random.Generator | None = None
         # This frame's caustic field and the camera's (East, North), for the bubbles it lights.
         self._caustics: tuple[caustics_mod.CausticField, tuple[float, float]] | None = None
         self._last_t: float | None = None
@@ -443,14 +445,15 @@ class Polarimeter(Sensor):
         """Draw the sensor's fixed pattern and the sea surface from this sensor's stream."""
         # The third stream (the unit's errors) is used only by a non-ideal budget, so an ideal
         # unit's fixed pattern and sea are what they were before the budget existed.
-        # The fourth (bubbles) leaves the first three as they were: SeedSequence children are
-        # numbered, so spawning one more does not change the others.
-        seeds = rng.spawn(4)
+        # The fourth (bubbles) and fifth (marine snow) leave the first three as they were:
+        # SeedSequence children are numbered, so spawning more does not change the others.
+        seeds = rng.spawn(5)
         self._dofp = self._new_sensor(seeds[0])
         sea = self._sea()
         self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
         self.unit = self.draw_unit(seeds[2]) if self.hardware.drawn else None
         self._bubble_rng = seeds[3]
+        self._particle_rng = seeds[4]
         self._last_t = None
         self.truth = None
 
@@ -527,6 +530,8 @@ class Polarimeter(Sensor):
         self._offline_waves(float(t), rng)
         if self._bubble_rng is None and self._bubbles() is not None:
             self._bubble_rng = rng.spawn(1)[0]  # after the others: theirs stay as they were
+        if self._particle_rng is None and self._particles() is not None:
+            self._particle_rng = rng.spawn(1)[0]  # likewise
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
         if not (np.all(np.isfinite(sun_enu)) and abs(np.linalg.norm(sun_enu) - 1) < 1e-6):
             raise ValueError("sun: must be a SunPosition or a unit ENU vector")
@@ -564,7 +569,8 @@ class Polarimeter(Sensor):
         """Render, expose and read out one frame; its truth layers."""
         assert self._dofp is not None
         stokes, window, occluded, sun_look = self.render_stokes(world, pos, c_cn, depth_m, sun)
-        n_bubbles = self._add_bubbles(stokes, occluded, c_cn, depth_m, sun)
+        n_bubbles = self._add_points(stokes, occluded, c_cn, depth_m, sun, "bubbles")
+        n_particles = self._add_points(stokes, occluded, c_cn, depth_m, sun, "particles")
         exposure = self._dofp.exposure_for(stokes)
         raw = self._dofp.render_mosaic(stokes, exposure, rng)
         sun_px = None
@@ -586,6 +592,7 @@ class Polarimeter(Sensor):
             night,
             float(exposure),
             bubbles=n_bubbles,
+            particles=n_particles,
         )
         return raw, truth
 
@@ -596,25 +603,37 @@ class Polarimeter(Sensor):
             return None
         return bubbles_mod.BubblePopulation(o.wind_speed_mps)
 
-    def _add_bubbles(
+    def _particles(self) -> particles_mod.MarineSnow | None:
+        """The water's marine snow, or None (ideal, or a tank: tap water and milk have none)."""
+        if self.optics.particles == "ideal" or self.tank is not None:
+            return None
+        return particles_mod.MarineSnow()
+
+    def _add_points(
         self,
         st: FloatArray,
         occluded: NDArray[np.bool_],
         c_cn: NDArray[np.float64],
         depth_m: float,
         sun: Any,
+        kind: str,
     ) -> int:
-        """Draw this frame's bubbles and add each to its pixel's S0 (photons/s), in place.
+        """Draw this frame's bubbles or aggregates; add each to its pixel's S0 (photons/s).
 
         An unresolved point of intensity I at range r reads as the radiance I/(r² Ω) in a pixel
         of solid angle Ω (outside the housing; :mod:`sensors.polarimeter.bubbles`). Unpolarized:
-        S1 = S2 = 0 in any basis. Bubbles on occluded pixels are dropped (the hull's shadow and
+        S1 = S2 = 0 in any basis. Points on occluded pixels are dropped (the hull's shadow and
         what lies behind it are not known). Returns how many were added.
         """
-        pop = self._bubbles()
-        if pop is None or depth_m <= 0.0 or self._bubble_rng is None:
+        if kind == "bubbles":
+            pop: Any = self._bubbles()
+            stream, g, albedo = self._bubble_rng, bubbles_mod.HG_G, 1.0
+        else:
+            pop = self._particles()
+            stream, g, albedo = self._particle_rng, particles_mod.HG_G, particles_mod.ALBEDO
+        if pop is None or depth_m <= 0.0 or stream is None:
             return 0
-        draw = pop.draw(depth_m, self._bubble_rng)
+        draw = pop.draw(depth_m, stream)
         if draw.radii_m.size == 0:
             return 0
         sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
@@ -623,9 +642,9 @@ class Polarimeter(Sensor):
         e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
         assert self._column is not None
         intensity, r = bubbles_mod.bubble_radiance(
-            draw, beam.look_dir, e_sun, self._column.water.c_per_m
+            draw, beam.look_dir, e_sun, self._column.water.c_per_m, g=g, albedo=albedo
         )
-        if self._caustics is not None:  # the beam's caustics light the bubbles too
+        if self._caustics is not None:  # the beam's caustics light the points too
             cf, (x0, y0) = self._caustics
             off = draw.offsets_m
             intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)

@@ -19,6 +19,7 @@ from sensors.polarimeter import bubbles as bubbles_mod
 from sensors.polarimeter import camera as camera_mod
 from sensors.polarimeter import caustics as caustics_mod
 from sensors.polarimeter import mosaic as mosaic_mod
+from sensors.polarimeter import particles as particles_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
 from sensors.polarimeter.sky import SkySpec
@@ -47,6 +48,9 @@ class OpticsConfig:
             water's sun-lit path radiance (and the bubbles) carry
             (:mod:`sensors.polarimeter.caustics`; a flat sea has none); ``"ideal"``: the beam
             stays uniform under the waves. Ideal by default here, as ``bubbles``.
+        particles: ``"marine_snow"``: suspended aggregates through the water column, drawn per
+            frame as bright unpolarized points (:mod:`sensors.polarimeter.particles`; none in a
+            tank); ``"ideal"``: none. Ideal by default here, as ``bubbles``.
     """
 
     sky: SkySpec = field(default_factory=SkySpec)
@@ -59,6 +63,7 @@ class OpticsConfig:
     wind_toward_deg: float = 0.0
     bubbles: str = "ideal"
     flicker: str = "ideal"
+    particles: str = "ideal"
 
     def __post_init__(self) -> None:
         if self.jerlov_type not in water_mod.JERLOV_TYPES:
@@ -72,6 +77,11 @@ class OpticsConfig:
         if self.bubbles not in bubbles_mod.BUBBLE_MODELS:
             raise ValueError(
                 f"OpticsConfig.bubbles: {self.bubbles!r}; allowed: {bubbles_mod.BUBBLE_MODELS}"
+            )
+        if self.particles not in particles_mod.PARTICLE_MODELS:
+            raise ValueError(
+                f"OpticsConfig.particles: {self.particles!r}; "
+                f"allowed: {particles_mod.PARTICLE_MODELS}"
             )
         if self.flicker not in caustics_mod.FLICKER_MODELS:
             raise ValueError(
@@ -227,6 +237,7 @@ class PolarimeterTruth:
         night: The sun was below the night threshold.
         exposure_us: Exposure used.
         bubbles: How many bubbles were drawn into the frame (:mod:`sensors.polarimeter.bubbles`).
+        particles: How many marine-snow aggregates were (:mod:`sensors.polarimeter.particles`).
     """
 
     t: float
@@ -239,6 +250,7 @@ class PolarimeterTruth:
     night: bool
     exposure_us: float
     bubbles: int = 0
+    particles: int = 0
 
 
 __all__ = ["OpticsConfig", "PolarimeterSpec", "PolarimeterTruth"]

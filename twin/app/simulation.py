@@ -30,18 +30,20 @@ from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, S
 from twin.onboard.control.guidance import Guidance, GuidanceStatus
 from twin.onboard.control.navsource import EstimateNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
+from twin.onboard.gravity.matching import StoredMap
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
 from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
 from twin.world.assembly import build_current, build_plant, build_suite, optics_config
+from twin.world.gravity_area import gravity_field, launch_on_map, stored_map
 from twin.world.hydrodynamics import Hydrodynamics
 from twin.world.plant import Plant
 from twin.world.vehicle import VehicleParams
 
 # Order of the root seed's children. Append new consumers at the end: existing streams then stay
 # the same when a new stochastic component is added.
-SEED_SENSORS, SEED_CURRENT, SEED_NAV = 0, 1, 2
-_N_SEED_CHILDREN = 3
+SEED_SENSORS, SEED_CURRENT, SEED_NAV, SEED_MAP = 0, 1, 2, 3
+_N_SEED_CHILDREN = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,7 +176,8 @@ def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
     current = build_current(scenario, np.random.default_rng(children[SEED_CURRENT]))
     plant = build_plant(scenario, current)
     suite = build_suite(scenario, plant, children[SEED_SENSORS])
-    navigators = _navigators(scenario, plant, suite, children[SEED_NAV])
+    stored = _stored_map(scenario, suite, children[SEED_MAP])
+    navigators = _navigators(scenario, plant, suite, children[SEED_NAV], stored)
     ini = scenario.initial
     # Wheel-over radius: a little over the REMUS model's full-rudder turning radius at cruise
     # (17.9 m at 1.5 m/s, tests/test_plant.py), so the turn is flyable with rudder in reserve.
@@ -216,8 +219,35 @@ def _imu_grade(spec: Any) -> ImuGrade:
     )
 
 
+def _stored_map(
+    scenario: Scenario, suite: SensorSuite, seed: np.random.SeedSequence
+) -> StoredMap | None:
+    """The anomaly map the vehicle carries (drawn per run from ``seed``), or None.
+
+    Only a vehicle with a gravimeter and gravity matching switched on carries one. It is told
+    the map's σ_m and the gravimeter's datasheet noise (its declared knowledge).
+    """
+    g = scenario.gravity
+    meter = next((x for x in suite.sensors if x.kind == "gravimeter"), None)
+    if meter is None or not g.matching:
+        return None
+    field = gravity_field(scenario)
+    assert field is not None  # the loader refuses a gravimeter without a map
+    grid = stored_map(scenario, field, np.random.default_rng(seed))
+    return StoredMap(
+        grid,
+        launch_on_map(g, field.extent_m),
+        sigma_map_mgal=g.map_error_mgal,
+        sigma_gravimeter_mgal=float(meter.spec.noise_mgal),  # type: ignore[attr-defined]
+    )
+
+
 def _navigators(
-    scenario: Scenario, plant: Plant, suite: SensorSuite, seed: np.random.SeedSequence
+    scenario: Scenario,
+    plant: Plant,
+    suite: SensorSuite,
+    seed: np.random.SeedSequence,
+    stored: StoredMap | None = None,
 ) -> dict[str, Navigator]:
     """The onboard filter variants, started from one shared (perturbed) launch alignment.
 
@@ -268,5 +298,6 @@ def _navigators(
         water_index=optics_config(scenario).water_index,
         calibration=cam.calibration() if cam is not None else None,  # type: ignore[attr-defined]
         camera=cam.name if cam is not None else "polarimeter",
+        gravity_map=stored,
     )
     return {v: Navigator(v, knowledge, init, cfg) for v in nav.variants}

@@ -97,14 +97,15 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     start_utc += dt.timedelta(seconds=float(rng.uniform(0.0, spread)))
     cam = sensors.create("polarimeter", "imx264mzr", binning=4)
     wind = BEAUFORT_MPS[case.wind_beaufort]
-    # The sea's bubbles (none in the tank: Polarimeter._bubbles) and caustics; one budget for
-    # every case.
+    # The sea's bubbles, marine snow (neither in the tank: Polarimeter._bubbles, _particles)
+    # and caustics; one budget for every case.
     cam.configure(
         OpticsConfig(
             jerlov_type=case.jerlov_type,
             wind_speed_mps=wind,
             bubbles="hall_novarini",
             flicker="caustics",
+            particles="marine_snow",
         )
     )
     errors = HardwareErrors() if p["hardware"] == "real" else HardwareErrors.ideal()

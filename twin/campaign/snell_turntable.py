@@ -179,7 +179,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
         wind = tank_wind_mps(float(p["wind_beaufort"]))
     cam = sensors.create("polarimeter", "phx050s_p_fe185c046_bin4")
     # South-west wind: blowing toward the north-east. The waves' caustics are the sea's (the
-    # tank has no breakers, so no bubbles: Polarimeter._bubbles).
+    # tank has no breakers and no marine snow: Polarimeter._bubbles, _particles).
     cam.configure(
         OpticsConfig(
             jerlov_type=str(p["jerlov_type"]),
@@ -187,6 +187,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             wind_toward_deg=45.0,
             bubbles="hall_novarini",
             flicker="caustics",
+            particles="marine_snow",
         )
     )
     if p["hardware"] == "real":

@@ -81,6 +81,34 @@ def normal_gravity(lat_rad: float, h_m: float = 0.0) -> float:
     )
 
 
+#: Newton's constant (CODATA 2018) and sea water's density, for the water layer's attraction.
+G_NEWTON = 6.674e-11
+RHO_SEAWATER_KG_M3 = 1030.0
+FREE_AIR_MGAL_PER_M = 0.3086
+#: Poincaré–Prey: the vertical gradient of gravity inside a water layer, mGal/m (positive down):
+#: down through water gravity grows by the free-air gradient less twice the layer's attraction.
+POINCARE_PREY_MGAL_PER_M = FREE_AIR_MGAL_PER_M - 4 * math.pi * G_NEWTON * RHO_SEAWATER_KG_M3 * 1e5
+
+
+def normal_gravity_in_water_mgal(lat_rad: float, depth_m: float = 0.0) -> float:
+    """Normal gravity (mGal) at the sea surface, continued down through the water.
+
+    The anomaly a gravimeter's reading is reduced to is relative to this: Somigliana's closed form
+    at the surface (:func:`normal_gravity`) plus the Poincaré–Prey gradient below it.
+    """
+    return normal_gravity(lat_rad) * 1e5 + POINCARE_PREY_MGAL_PER_M * max(float(depth_m), 0.0)
+
+
+def eotvos_mgal(v_east_mps: float, v_north_mps: float, lat_rad: float) -> float:
+    """The Eötvös effect (mGal): what moving over the rotating Earth takes off measured gravity.
+
+    2Ω v_E cos L + (v_E² + v_N²)/a (Harlan 1968, Geophysics 33(3)): 14.6 mGal per m/s of eastward
+    speed at the equator.
+    """
+    centrifugal = 2.0 * OMEGA_IE * v_east_mps * math.cos(lat_rad)
+    return (centrifugal + (v_east_mps**2 + v_north_mps**2) / A_M) * 1e5
+
+
 def gravity_enu(lat_rad: float, h_m: float = 0.0) -> FloatArray:
     """Normal gravity vector g^n = [0, 0, −γ(L, h)] in ENU (m/s²)."""
     return np.array([0.0, 0.0, -normal_gravity(lat_rad, h_m)])

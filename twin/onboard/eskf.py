@@ -45,6 +45,9 @@ Measurements (z = predicted − measured, the paper's sign):
   tangent-plane covariances are).
 * depth: Z_d = h_est − (−depth) = δh + v. Height is relative to the scenario's sea surface,
   which the Earth model takes as the ellipsoid (:mod:`twin.core.earth`): h = −depth.
+* gravity map (:meth:`Eskf.update_scalar`, built by :mod:`twin.onboard.gravity.matching`): the
+  stored anomaly at the estimated position minus the reduced gravimeter reading, with SITAN's
+  fitted slope on δL, δλ and the Eötvös and normal-gravity partials on δv and δL, δh.
 
 Gating: every innovation's NIS = yᵀ S⁻¹ y is tested against the chi-square quantile
 ``EskfConfig.gate_probability`` for its dimension; a rejected measurement is recorded in
@@ -116,7 +119,7 @@ _DEG_PER_RT_H = _DEG / 60.0
 _UG = 1e-6 * earth.G0_MPS2
 
 Triple = tuple[float, float, float]
-MeasurementKind = Literal["gravity", "sun", "depth"]
+MeasurementKind = Literal["gravity", "sun", "depth", "map"]
 
 
 def _triple(name: str, value: Any, *, positive: bool = False) -> Triple:
@@ -712,7 +715,13 @@ class Eskf:
         self._w_sum = [0.0, 0.0, 0.0]
         self._n_sum = 0
         self.rejections: list[Rejection] = []
-        self.counts: dict[str, int] = {"gravity": 0, "sun": 0, "depth": 0, "not_static": 0}
+        self.counts: dict[str, int] = {
+            "gravity": 0,
+            "sun": 0,
+            "depth": 0,
+            "map": 0,
+            "not_static": 0,
+        }
 
     def _threshold(self, dof: int) -> float:
         return chi2_threshold(self.config.gate_probability, dof)
@@ -967,6 +976,22 @@ class Eskf:
         h = np.zeros((1, DIM))
         h[0, I_H] = 1.0
         return self._update("depth", np.array([self.ins.h + d]), h, np.array([[s * s]]))
+
+    def update_scalar(
+        self, kind: MeasurementKind, z: float, h: FloatArray, variance: float
+    ) -> UpdateResult:
+        """A scalar update with a given innovation z (predicted − measured) and row H (15,).
+
+        For measurements modelled outside the filter (the gravity-map match of
+        :mod:`twin.onboard.gravity.matching`); gated like the others.
+        """
+        row = np.asarray(h, dtype=np.float64).reshape(1, DIM)
+        if not (math.isfinite(z) and np.all(np.isfinite(row))):
+            raise ValueError(f"Eskf.update_scalar {kind}: non-finite innovation or H")
+        if not (math.isfinite(variance) and variance > 0):
+            raise ValueError(f"Eskf.update_scalar {kind}: variance {variance!r}; allowed: > 0")
+        self.propagate_covariance()
+        return self._update(kind, np.array([z]), row, np.array([[variance]]))
 
     @staticmethod
     def _covariance(name: str, value: Any, n: int, *, psd_only: bool = False) -> FloatArray:

@@ -2,7 +2,9 @@
 
 One :class:`Navigator` is one filter variant (issue #5): the strapdown INS + 15-state ESKF
 (:mod:`twin.onboard.eskf`) fed with the IMU at its rate, gravity-vector updates at
-``gravity_rate_hz`` when quasi-static, depth-gauge updates, and — for a compass variant — the solar
+``gravity_rate_hz`` when quasi-static, depth-gauge updates, gravimeter readings matched to a
+stored anomaly map when the vehicle has both (:mod:`twin.onboard.gravity.matching`; every variant
+alike), and — for a compass variant — the solar
 vector of one compass method (:mod:`twin.onboard.compass`) from a polarimeter frame every
 ``1/compass_rate_hz`` seconds. The compass method gets the attitude hint (roll, pitch) and the
 position from *this* variant's own estimate, as on a real vehicle.
@@ -30,6 +32,7 @@ from twin.core.ephemeris import sun_direction_enu
 from twin.core.messages import Reading
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
+from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
 #: The variant that uses no compass: INS aided by gravity and depth only.
@@ -46,9 +49,12 @@ class VehicleKnowledge:
         longitude_deg: Launch longitude.
         water_index: Refractive index of the water (from declared salinity, temperature).
         calibration: The polarimeter's calibration; None for a vehicle without one.
+        gravity_map: The stored gravity-anomaly map and its declared errors; None for a vehicle
+            without one.
         imu: Sensor name of the IMU readings.
         depth: Sensor name of the depth-gauge readings.
         camera: Sensor name of the polarimeter readings.
+        gravimeter: Sensor name of the gravimeter readings.
     """
 
     start_utc: dt.datetime
@@ -56,9 +62,11 @@ class VehicleKnowledge:
     longitude_deg: float
     water_index: float = 1.338
     calibration: CameraCalibration | None = None
+    gravity_map: StoredMap | None = None
     imu: str = "imu"
     depth: str = "depth"
     camera: str = "polarimeter"
+    gravimeter: str = "gravimeter"
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,6 +80,8 @@ class NavigatorConfig:
         gravity_aiding: Use gravity updates.
         depth_aiding: Use depth updates.
         sun_azimuth_only: Fuse only the solar vector's azimuth (``Eskf.update_sun``).
+        map_aiding: Fuse gravimeter readings against the stored map (when the vehicle has one:
+            :mod:`twin.onboard.gravity.matching`).
         eskf: Filter parameters.
     """
 
@@ -80,6 +90,7 @@ class NavigatorConfig:
     gravity_aiding: bool = True
     depth_aiding: bool = True
     sun_azimuth_only: bool = False
+    map_aiding: bool = True
     eskf: EskfConfig = field(default_factory=EskfConfig)
 
     def __post_init__(self) -> None:
@@ -130,6 +141,13 @@ class Navigator:
         self.events: list[CompassEvent] = []
         self.updates: dict[str, int] = {"sun": 0, "sun_rejected": 0, "no_fix": 0, "frames": 0}
         self._rate_b = np.zeros(3)  # the last IMU sample's angular rate (body, rad/s)
+        self.matcher: GravityMatcher | None = None
+        if knowledge.gravity_map is not None and self.config.map_aiding:
+            self.matcher = GravityMatcher(
+                knowledge.gravity_map,
+                math.radians(knowledge.latitude_deg),
+                math.radians(knowledge.longitude_deg),
+            )
         r_m, r_n = earth.principal_radii(math.radians(knowledge.latitude_deg))
         self._m_per_rad = (r_m, r_n * math.cos(math.radians(knowledge.latitude_deg)))
 
@@ -149,6 +167,10 @@ class Navigator:
             return None
         if reading.sensor == k.depth and self.config.depth_aiding:
             f.update_depth(float(np.asarray(reading["depth_m"]).reshape(-1)[0]))
+            return None
+        if reading.sensor == k.gravimeter and self.matcher is not None:
+            g = float(np.asarray(reading["gravity_mgal"]).reshape(-1)[0])
+            self.matcher.update(f, reading.t, g)
             return None
         if reading.sensor == k.camera and self.method is not None:
             if reading.t < self._next_compass_t - 1e-9:
@@ -227,6 +249,11 @@ class Navigator:
         north = (est.lat_rad - math.radians(k.latitude_deg)) * self._m_per_rad[0]
         east = (est.lon_rad - math.radians(k.longitude_deg)) * self._m_per_rad[1]
         return east, north
+
+    @property
+    def map_matches(self) -> list[MatchResult]:
+        """Every gravimeter reading's fate (empty without a stored map)."""
+        return [] if self.matcher is None else self.matcher.results
 
     @property
     def rejections(self) -> list:

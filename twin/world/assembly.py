@@ -14,13 +14,19 @@ import numpy as np
 
 import sensors
 from scenarios.schema import Hardware, Scenario
-from sensors.polarimeter.hardware import CalibrationUncertainty, HardwareErrors, MountingError
+from sensors.polarimeter.hardware import (
+    CalibrationUncertainty,
+    HardwareErrors,
+    LensTolerance,
+    MountingError,
+)
 from sensors.polarimeter.lens import LensPolarization
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.sky import SkySpec
 from sensors.suite import SensorSuite
 from twin.core.frames import heading_deg_to_yaw
 from twin.world.current import Current, CurrentProfilePoint
+from twin.world.gravity_area import check_gravity, gravity_field, launch_on_map
 from twin.world.plant import Plant, PlantConfig
 
 
@@ -100,6 +106,8 @@ def optics_config(scenario: Scenario) -> OpticsConfig:
         # offline tank trials get the same from Polarimeter.configure_tank).
         bubbles="ideal" if scenario.scene == "tank" else o.bubbles,
         flicker=o.flicker,
+        # Nor marine snow in the tank's water.
+        particles="ideal" if scenario.scene == "tank" else o.particles,
     )
 
 
@@ -141,7 +149,21 @@ def hardware_errors(h: Hardware) -> HardwareErrors:
         )
     )
     lens = LensPolarization.ideal() if h.lens == "ideal" else LensPolarization()
-    return HardwareErrors(cal, mount, lens, lens_compensation=h.lens_compensation)
+    tolerance = (
+        LensTolerance(0.0, 0.0)
+        if h.calibration == "ideal"
+        else LensTolerance(
+            focal_tolerance_rel=h.focal_tolerance_rel, decentre_sigma_um=h.decentre_sigma_um
+        )
+    )
+    return HardwareErrors(
+        cal,
+        mount,
+        lens,
+        lens_compensation=h.lens_compensation,
+        tolerance=tolerance,
+        distortion_correction=h.distortion_correction,
+    )
 
 
 def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
@@ -157,7 +179,29 @@ def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
     ]
     if s.polarimeter is not None:
         out.append(polarimeter_sensor(scenario))
+    if s.gravimeter is not None:
+        out.append(gravimeter_sensor(scenario))
     return out
+
+
+def _bare_gravimeter(scenario: Scenario) -> sensors.Sensor:
+    """The gravimeter without its field (the field's problems are check_gravity's)."""
+    s = scenario.sensors
+    return make_sensor("gravimeter", s.gravimeter or "", s.gravimeter_overrides)
+
+
+def gravimeter_sensor(scenario: Scenario) -> sensors.Sensor:
+    """The scenario's gravimeter, reading the world's anomaly field (``gravity_area``)."""
+    s = scenario.sensors
+    assert s.gravimeter is not None
+    meter = make_sensor("gravimeter", s.gravimeter, s.gravimeter_overrides)
+    field = gravity_field(scenario)
+    if field is None:
+        raise ValueError(
+            f"sensors.gravimeter: {s.gravimeter!r} needs a [gravity] map (the scenario has none)"
+        )
+    meter.configure_field(field, launch_on_map(scenario.gravity, field.extent_m))  # type: ignore[attr-defined]
+    return meter
 
 
 def check_sensors(scenario: Scenario) -> list[str]:
@@ -174,6 +218,16 @@ def check_sensors(scenario: Scenario) -> list[str]:
         ("imu", lambda: make_sensor("imu", s.imu, s.imu_overrides)),
         ("depth", lambda: make_sensor("depth", s.depth, s.depth_overrides)),
         *((("polarimeter", lambda: polarimeter_sensor(scenario)),) if s.polarimeter else ()),
+        *(
+            (
+                (
+                    "gravimeter",
+                    lambda: make_sensor("gravimeter", s.gravimeter, s.gravimeter_overrides),
+                ),
+            )
+            if s.gravimeter
+            else ()
+        ),
     ):
         try:
             built[kind] = build()
@@ -196,6 +250,7 @@ def check_sensors(scenario: Scenario) -> list[str]:
                 f"{field}: delay_s = {sensor.delay_s:g} s: no reading would arrive before the run "
                 f"ends; allowed [0, {scenario.duration_s:g}) s (duration_s)"
             )
+    problems += check_gravity(scenario)
     nav = scenario.navigation
     cam = built.get("polarimeter")
     compass = [v for v in nav.variants if v != "ins"]

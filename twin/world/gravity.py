@@ -41,14 +41,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from twin.core.earth import POINCARE_PREY_MGAL_PER_M
+from twin.core.earth import RHO_SEAWATER_KG_M3 as RHO_SEAWATER
 from twin.core.gravity_map import GravityGrid
 
-G_NEWTON = 6.674e-11  # CODATA 2018
 RHO_CRUST = 2670.0  # kg/m³: Hinze 2003, the standard reduction density
-RHO_SEAWATER = 1030.0  # kg/m³
-FREE_AIR_MGAL_PER_M = 0.3086
-# Poincaré–Prey: the vertical gradient of gravity inside a water layer, mGal/m (positive down).
-POINCARE_PREY_MGAL_PER_M = FREE_AIR_MGAL_PER_M - 4 * math.pi * G_NEWTON * RHO_SEAWATER * 1e5
 
 
 @dataclass(frozen=True, slots=True)
