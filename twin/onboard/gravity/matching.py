@@ -57,6 +57,8 @@ def correlation_distance_m(grid: GravityGrid) -> float:
         np.abs(np.fft.rfft2(np.ones_like(v), s=(2 * ny, 2 * nx))) ** 2, s=(2 * ny, 2 * nx)
     )
     acf = acf / np.maximum(counts, 1.0)
+    if not acf[0, 0] > 0.0:
+        return math.inf  # a flat map: no variance to correlate (β = 0)
     de, dn = grid.spacing_m
     ax_e, ax_n = acf[0, :nx] / acf[0, 0], acf[:ny, 0] / acf[0, 0]
     lengths = []
