@@ -59,6 +59,7 @@ from scenarios.schema import (
     Optics,
     OverrideValue,
     Place,
+    PlannedMission,
     ProfilePoint,
     Recording,
     Scenario,
@@ -782,6 +783,7 @@ _MISSION_KEYS = {
         "radius_m",
         "speed_mps",
     ),
+    "planned": ("kind", "acceptance_radius_m", "goal_m", "depth_m", "speed_mps", "q_rate_m2_per_s"),
 }
 
 
@@ -815,6 +817,19 @@ def _mission(t: _Table | None) -> Mission | None:
             _lawnmower_geometry(t, LawnmowerMission(**geometry, depth_m=0.0, speed_mps=1.0), accept)
         mission = _build(
             LawnmowerMission, **geometry, depth_m=depth, speed_mps=speed, acceptance_radius_m=accept
+        )
+    elif kind == "planned":
+        goal = t.vec2("goal_m")
+        t.report.point(t.at("goal_m"), "the goal", goal)
+        depth = t.number("depth_m", NON_NEGATIVE)
+        t.report.depth(t.at("depth_m"), depth)
+        mission = _build(
+            PlannedMission,
+            goal_m=goal,
+            depth_m=depth,
+            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+            q_rate_m2_per_s=t.number("q_rate_m2_per_s", POSITIVE, default=100.0),
+            acceptance_radius_m=accept,
         )
     else:
         center = t.vec2("center_m")

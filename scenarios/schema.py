@@ -30,6 +30,7 @@ from twin.core.mission import (
     LegsMission,
     Mission,
     MissionKind,
+    PlannedMission,
     StationKeepingMission,
     Vec2,
     WaypointLeg,
@@ -42,6 +43,7 @@ __mission_exports__ = (
     Leg,
     LegsMission,
     MissionKind,
+    PlannedMission,
     StationKeepingMission,
     WaypointLeg,
 )

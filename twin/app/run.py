@@ -33,7 +33,7 @@ from scenarios.schema import Scenario
 from twin.app.simulation import Simulation, build_simulation
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
-from twin.record.recorder import Recorder
+from twin.record.recorder import Recorder, default_blueprint
 from twin.scoring.mission import format_summary, summarize
 from twin.scoring.observer import RunScorer
 
@@ -148,7 +148,9 @@ def run_scenario(
                 out / "recording.rrd",
                 recording_id=f"{scenario.name}-seed{seed_used}",
                 start_utc=scenario.start_utc,
-                variants=tuple(world.navigators),
+                blueprint=default_blueprint(
+                    tuple(world.navigators), gravity=world.stored_map is not None
+                ),
             )
         notes = _notes(scenario)
         for note in notes:

@@ -26,11 +26,14 @@ from twin.app.navsources import TruthNav
 from twin.core.earth import principal_radii
 from twin.core.frames import quat_to_dcm
 from twin.core.messages import ActuatorCommand, Reading
+from twin.core.mission import PlannedMission
 from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, Setpoint
 from twin.onboard.control.guidance import Guidance, GuidanceStatus
 from twin.onboard.control.navsource import EstimateNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
 from twin.onboard.gravity.matching import StoredMap
+from twin.onboard.gravity.pcrb import GainsModel
+from twin.onboard.gravity.planner import PlannedPath, plan
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
 from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
@@ -83,6 +86,9 @@ class Simulation:
     nav: NavSource
     navigators: dict[str, Navigator] = field(default_factory=dict)
     observers: list[Observer] = field(default_factory=list)
+    # The vehicle's stored gravity map and, for a planned mission, the route it planned on it.
+    stored_map: StoredMap | None = None
+    route: PlannedPath | None = None
     # The last setpoint and guidance status of :meth:`control` (for the recorder and the scorer).
     setpoint: Setpoint = field(default_factory=lambda: Setpoint(0.0, 0.0, 0.0))
     status: GuidanceStatus = field(default_factory=lambda: GuidanceStatus(0, 0, False, 0.0))
@@ -179,11 +185,15 @@ def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
     stored = _stored_map(scenario, suite, children[SEED_MAP])
     navigators = _navigators(scenario, plant, suite, children[SEED_NAV], stored)
     ini = scenario.initial
+    mission = scenario.mission
+    route = None
+    if isinstance(mission, PlannedMission):
+        assert stored is not None  # the loader refuses a planned mission without a map
+        route = plan_route(mission, stored, (ini.position_m[0], ini.position_m[1]), navigators)
+        mission = mission.legs_along(route.nodes_m - np.asarray(stored.launch_m))
     # Wheel-over radius: a little over the REMUS model's full-rudder turning radius at cruise
     # (17.9 m at 1.5 m/s, tests/test_plant.py), so the turn is flyable with rudder in reserve.
-    guidance = Guidance(
-        scenario.mission, (ini.position_m[0], ini.position_m[1]), turn_radius_m=20.0
-    )
+    guidance = Guidance(mission, (ini.position_m[0], ini.position_m[1]), turn_radius_m=20.0)
     autopilot = Autopilot(
         propeller_map(plant),
         max_rps=plant.params.prop_max_rpm / 60.0,
@@ -194,7 +204,9 @@ def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
         steer = scenario.navigation.steering_variant
         assert steer is not None  # the loader refuses "estimate" without variants
         nav = EstimateNav(navigators[steer])
-    return Simulation(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
+    sim = Simulation(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
+    sim.stored_map, sim.route = stored, route
+    return sim
 
 
 def _imu_grade(spec: Any) -> ImuGrade:
@@ -229,7 +241,8 @@ def _stored_map(
     """
     g = scenario.gravity
     meter = next((x for x in suite.sensors if x.kind == "gravimeter"), None)
-    if meter is None or not g.matching:
+    planned = isinstance(scenario.mission, PlannedMission)
+    if not planned and (meter is None or not g.matching):
         return None
     field = gravity_field(scenario)
     assert field is not None  # the loader refuses a gravimeter without a map
@@ -238,8 +251,35 @@ def _stored_map(
         grid,
         launch_on_map(g, field.extent_m),
         sigma_map_mgal=g.map_error_mgal,
-        sigma_gravimeter_mgal=float(meter.spec.noise_mgal),  # type: ignore[attr-defined]
+        sigma_gravimeter_mgal=float(meter.spec.noise_mgal) if meter is not None else 0.0,  # type: ignore[attr-defined]
     )
+
+
+def plan_route(
+    mission: PlannedMission,
+    stored: StoredMap,
+    start_en: tuple[float, float],
+    navigators: dict[str, Navigator],
+) -> PlannedPath:
+    """The vehicle's route at launch: PCRB-A* on its own stored map (wang2023 §3).
+
+    The bound's model is the vehicle's: its speed, its filter's initial position variance (the
+    paper's 1 km² without a filter), the mission's Q_t and the stored map's R (eq. 3).
+    """
+    p0 = 1.0e6
+    if navigators:
+        nav = next(iter(navigators.values()))
+        p0 = float(max(nav.config.eskf.p0_position_m)) ** 2
+    model = GainsModel(
+        speed_mps=mission.speed_mps,
+        p0_m2=max(p0, 1e-6),
+        q_rate_m2_per_s=mission.q_rate_m2_per_s,
+        sigma_mgal=math.sqrt(stored.variance_mgal2),
+    )
+    e0, n0 = stored.launch_m
+    start = (e0 + start_en[0], n0 + start_en[1])
+    goal = (e0 + mission.goal_m[0], n0 + mission.goal_m[1])
+    return plan(stored.grid, start, goal, model)
 
 
 def _navigators(

@@ -8,12 +8,13 @@ world state: positions are (East, North) metres from the launch point, headings 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Literal, TypeAlias
 
 Vec2: TypeAlias = tuple[float, float]
-MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping"]
-MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping")
+MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping", "planned"]
+MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping", "planned")
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,4 +131,45 @@ class StationKeepingMission:
         return (self.depth_m,)
 
 
-Mission: TypeAlias = LegsMission | LawnmowerMission | StationKeepingMission
+@dataclass(frozen=True, slots=True)
+class PlannedMission:
+    """Go to ``goal_m`` along the route the vehicle plans at launch on its stored gravity map.
+
+    The route is wang2023's PCRB-A* (``twin.onboard.gravity.planner``): the path whose bound on
+    the position error, summed over its nodes, is least, with the INS's position variance growing
+    at ``q_rate_m2_per_s`` per axis (the paper's Q_t: (10 m)² per second). The vehicle then flies
+    the route's nodes as waypoint legs (:meth:`legs_along`).
+    """
+
+    kind: ClassVar[Literal["planned"]] = "planned"
+    goal_m: Vec2
+    depth_m: float
+    speed_mps: float
+    q_rate_m2_per_s: float = 100.0
+    acceptance_radius_m: float = 5.0
+
+    def commanded_depths_m(self) -> tuple[float, ...]:
+        """Every depth the mission commands."""
+        return (self.depth_m,)
+
+    def legs_along(self, route_en_m: Sequence[Vec2]) -> LegsMission:
+        """The route (ENU from the launch point, start first) as waypoint legs to the goal.
+
+        Nodes where the route runs straight on are dropped (the autopilot flies a straight line
+        between the others); the last leg ends on ``goal_m`` itself, not on its map node.
+        """
+        pts = [tuple(map(float, p)) for p in route_en_m]
+        keep: list[Vec2] = []
+        for k in range(1, len(pts) - 1):
+            a, b, c = pts[k - 1], pts[k], pts[k + 1]
+            cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+            if abs(cross) > 1e-6 * max(1.0, math.dist(a, b) * math.dist(b, c)):
+                keep.append((b[0], b[1]))
+        keep.append((float(self.goal_m[0]), float(self.goal_m[1])))
+        legs = tuple(
+            WaypointLeg(to_m=p, depth_m=self.depth_m, speed_mps=self.speed_mps) for p in keep
+        )
+        return LegsMission(legs=legs, acceptance_radius_m=self.acceptance_radius_m)
+
+
+Mission: TypeAlias = LegsMission | LawnmowerMission | StationKeepingMission | PlannedMission

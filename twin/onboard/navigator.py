@@ -243,6 +243,11 @@ class Navigator:
         """The INS solution now (cheap; no covariance)."""
         return self.filter.nav_state()
 
+    @property
+    def metres_per_radian(self) -> tuple[float, float]:
+        """(North, East) metres per radian of latitude and longitude at the launch point."""
+        return self._m_per_rad
+
     def local_en(self, est: NavEstimate) -> tuple[float, float]:
         """Estimated (East, North) in metres from the launch point (the local-level frame)."""
         k = self.knowledge

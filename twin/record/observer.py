@@ -22,6 +22,7 @@ from twin.onboard.control.autopilot import Setpoint
 from twin.onboard.navigator import CompassEvent
 from twin.onboard.polarization import stokes_from_mosaic
 from twin.record import images
+from twin.record.gravity import log_gravity_sample, log_gravity_scene
 from twin.record.recorder import Recorder
 
 if TYPE_CHECKING:
@@ -77,6 +78,10 @@ class ChaseCamera:
             self._renderer = None
 
 
+#: How often the gravity map's true position and the filters' ellipses are logged (sim s).
+GRAVITY_LOG_PERIOD_S = 10.0
+
+
 class RunRecorder:
     """Logs a run to a :class:`Recorder`, as an observer of the simulation's steps.
 
@@ -99,6 +104,7 @@ class RunRecorder:
         self._every_cam = max(1, round(1.0 / (sc.recording.camera_rate_hz * dt)))
         self._pol_period = 1.0 / sc.recording.polarimeter_log_rate_hz
         self._next_pol_log_t = 0.0
+        self._next_gravity_t = 0.0
         self._k = 0
         cam = next((s for s in sim.suite.sensors if s.kind == "polarimeter"), None)
         self._calibration: CameraCalibration | None = (
@@ -157,11 +163,19 @@ class RunRecorder:
                 )
                 for name, sample in self.scorer.last_samples.items():
                     _log_nav_sample(rec, name, truth.t, sample)
+                if sim.stored_map is not None and truth.t >= self._next_gravity_t - 1e-9:
+                    log_gravity_sample(rec, sim, truth)
+                    self._next_gravity_t = truth.t + GRAVITY_LOG_PERIOD_S
         if self.chase is not None and self._k % self._every_cam == 0:
             rec.log_image("/camera/chase", sim.plant.t, self.chase.render(sim.plant.data))
 
 
 def log_scene(rec: Recorder, world: Simulation) -> None:
+    log_gravity_scene(rec, world)
+    _log_world_scene(rec, world)
+
+
+def _log_world_scene(rec: Recorder, world: Simulation) -> None:
     wps = world.guidance.waypoints_en
     depths = [leg.depth_m for leg in world.guidance.legs if hasattr(leg, "to_m")]
     waypoints = (

@@ -95,7 +95,7 @@ _TRUTH_WIDTH = 16
 FloatArray = NDArray[np.float64]
 
 
-def default_blueprint(variants: Sequence[str] = ()) -> rrb.Blueprint:
+def default_blueprint(variants: Sequence[str] = (), *, gravity: bool = False) -> rrb.Blueprint:
     """The layout a recording opens with.
 
     Left: the 3D world (vehicle, path travelled, mission, surface/seabed/tank) above the chase
@@ -108,6 +108,8 @@ def default_blueprint(variants: Sequence[str] = ()) -> rrb.Blueprint:
 
     Args:
         variants: The run's filter variants (``[navigation] variants``), one tab each.
+        gravity: Add a "Gravity map" tab (the stored map with the route, the paths and the
+            filters' ellipses, and the information map M: ``twin.record.gravity``).
 
     Returns:
         The blueprint, to pass as ``default_blueprint`` when saving.
@@ -169,7 +171,16 @@ def default_blueprint(variants: Sequence[str] = ()) -> rrb.Blueprint:
         )
         for v in variants
     ]
-    right = rrb.Tabs(series, *per_variant) if per_variant else series
+    tabs = list(per_variant)
+    if gravity:
+        tabs.append(
+            rrb.Horizontal(
+                rrb.Spatial2DView(origin="/gravity/map", name="Stored map, route, paths, 2σ"),
+                rrb.Spatial2DView(origin="/gravity/information", name="Information M (log10)"),
+                name="Gravity map",
+            )
+        )
+    right = rrb.Tabs(series, *tabs) if tabs else series
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
@@ -613,6 +624,19 @@ class Recorder:
             entity,
             rr.Points2D(pts, radii=radius, colors=[color], labels=[label] if label else None),
         )
+        self._maybe_flush(t)
+
+    def log_archetype(
+        self, entity: str, archetype: object, *, t: float | None = None, static: bool = False
+    ) -> None:
+        """Log any Rerun archetype now at sim time ``t``, or as static data (``static=True``)."""
+        if static:
+            self._rec.log(entity, archetype, static=True)  # type: ignore[arg-type]
+            return
+        if t is None:
+            raise ValueError(f"{entity}: a time-varying archetype needs t")
+        self._set_time(t)
+        self._rec.log(entity, archetype)  # type: ignore[arg-type]
         self._maybe_flush(t)
 
     def log_text(self, t: float, text: str, level: str = "INFO") -> None:

@@ -120,6 +120,7 @@ def summarize(world: Simulation, scorer: RunScorer, wall_s: float) -> dict[str, 
         "sensors": [s.describe() for s in world.suite.sensors],
         "physics_timestep_s": world.physics_dt,
         "mujoco_warnings": int(plant.data.warning.number.sum()),
+        **({"gravity": gravity} if (gravity := scorer.gravity.summary(world)) is not None else {}),
         **(
             {
                 "navigation": {

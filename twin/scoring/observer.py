@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from twin.scoring.gravity_nav import GravityScore
 from twin.scoring.mission import SETTLE_S, MissionScore, accumulate
 from twin.scoring.navigation import FixScore, VariantScore
 from twin.world.truth import Truth
@@ -33,6 +34,7 @@ class RunScorer:
         self.fixes = {name: FixScore(name) for name in sim.navigators if name != "ins"}
         self.last_truth: Truth | None = None
         self.last_samples: dict[str, dict[str, float]] = {}
+        self.gravity = GravityScore()
         # Set by the run loop: whether the mission is still active, and when the leg began.
         self.active = True
         self.leg_started_at = 0.0
@@ -74,3 +76,4 @@ class RunScorer:
         self.last_samples = {
             name: self.variants[name].add(nav, truth) for name, nav in sim.navigators.items()
         }
+        self.gravity.add(sim, truth, self.last_samples)

@@ -24,7 +24,13 @@ import numpy as np
 
 from scenarios.schema import Gravity, Scenario
 from twin.core.gravity_map import GravityGrid, load_grid
-from twin.core.mission import LawnmowerMission, LegsMission, StationKeepingMission, WaypointLeg
+from twin.core.mission import (
+    LawnmowerMission,
+    LegsMission,
+    PlannedMission,
+    StationKeepingMission,
+    WaypointLeg,
+)
 from twin.world.gravity import SeafloorSpec, anomaly_grid, wang2023_seafloor
 
 #: Keep the route this far inside the map's edge: SITAN's slope window and the filter's
@@ -116,6 +122,8 @@ def route_points_m(scenario: Scenario) -> list[tuple[str, tuple[float, float]]]:
             pts.append((f"mission.legs[{i}]", here))
     elif isinstance(m, LawnmowerMission):
         pts += [("mission", p) for p in m.waypoints_m()]
+    elif isinstance(m, PlannedMission):
+        pts.append(("mission.goal_m", m.goal_m))
     elif isinstance(m, StationKeepingMission):
         c, r = m.center_m, m.radius_m
         pts += [
@@ -134,6 +142,11 @@ def check_gravity(scenario: Scenario) -> list[str]:
         problems.append(
             f"sensors.gravimeter: {s.gravimeter!r} measures the gravity field, but the scenario "
             'has none; set [gravity] map = "seafloor", "wang2023" or "file"'
+        )
+    if isinstance(scenario.mission, PlannedMission) and g.map == "none":
+        problems.append(
+            "mission.kind: 'planned' plans on the vehicle's gravity map, but the scenario has "
+            'none; set [gravity] map = "seafloor", "wang2023" or "file"'
         )
     if g.map == "none":
         return problems

@@ -11,7 +11,9 @@ Sandwell's grid gives it, with the map's declared error) and reads a marine grav
 2. **matched** by SITAN (wang2023 §4, eqs. 34–37; :func:`twin.onboard.gravity.sitan.sitan_slope`):
    the predicted anomaly is the stored map at the estimated position, the measurement matrix the
    map's slope fitted over the INS's confidence region (half-width L = ⌈σ_max/δ⌉ nodes);
-3. **fused** as a scalar update of the 15-state ESKF (``Eskf.update_scalar``), innovation-gated.
+3. **averaged** over ``window_s`` (the vertical accelerations of depth keeping: ``GravityMatcher``)
+   and **fused** as a scalar update of the 15-state ESKF (``Eskf.update_scalar``),
+   innovation-gated.
 
 With errors defined as estimate − truth, the innovation z = Δg_M(x̂) − a_m is linear in
 
@@ -91,6 +93,7 @@ class StoredMap:
     sigma_gravimeter_mgal: float = 0.5
     max_half_window: int = 10
     variance_mgal2: float = field(init=False)
+    map_variance_mgal2: float = field(init=False)
 
     def __post_init__(self) -> None:
         for name in ("sigma_map_mgal", "sigma_gravimeter_mgal"):
@@ -112,7 +115,9 @@ class StoredMap:
         r = observation_variance(
             self.sigma_map_mgal, c0, 1.0 / ell**2, delta, self.sigma_gravimeter_mgal
         )
+        # Eq. 3 for one reading, and its map part (error + resolution) alone.
         object.__setattr__(self, "variance_mgal2", max(r, 1e-6))
+        object.__setattr__(self, "map_variance_mgal2", r - self.sigma_gravimeter_mgal**2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,19 +155,42 @@ def linearization_variance(
 class GravityMatcher:
     """Turns gravimeter readings into ESKF updates against a :class:`StoredMap`.
 
+    A marine gravimeter's reading carries the vehicle's vertical acceleration: a few mm/s² of
+    depth-keeping are hundreds of mGal. Like every marine gravity processing chain (the AT1M's
+    own filters, and the 1–4 min Gaussian filters of survey processing), the vehicle averages:
+    each reading is reduced (normal gravity, Eötvös with the estimated velocity, and the vertical
+    acceleration the filter itself estimates from its vertical velocity), then ``window_s`` of
+    reduced readings are fused as one update against the mean of the map along the estimated
+    track over the same window [ours: 60 s, the short end of survey filters]. The white noise
+    averages down (σ_g²/N); the map's error and resolution terms of eq. 3 do not (they are
+    correlated along a few hundred metres of track).
+
     Args:
         stored: The map and its declared errors.
         origin_lat_rad: Latitude of the navigation origin (the launch point).
         origin_lon_rad: Its longitude.
+        window_s: Averaging window (s).
     """
 
-    def __init__(self, stored: StoredMap, origin_lat_rad: float, origin_lon_rad: float):
+    def __init__(
+        self,
+        stored: StoredMap,
+        origin_lat_rad: float,
+        origin_lon_rad: float,
+        window_s: float = 60.0,
+    ):
+        if not (math.isfinite(window_s) and window_s > 0):
+            raise ValueError(f"GravityMatcher window_s: {window_s!r}; allowed: > 0 s")
         self.stored = stored
         self.lat0 = origin_lat_rad
         self.lon0 = origin_lon_rad
+        self.window_s = float(window_s)
         r_m, r_n = earth.principal_radii(origin_lat_rad)
         self._m_per_rad = (r_m, r_n * math.cos(origin_lat_rad))
         self.results: list[MatchResult] = []
+        self._buf: list[tuple[float, float, float]] = []  # (reduced anomaly, map E, map N)
+        self._t0: float | None = None
+        self._last_vu: tuple[float, float] | None = None  # (t, estimated v_U) of the last reading
 
     def map_position(self, lat_rad: float, lon_rad: float) -> tuple[float, float]:
         """Map coordinates (m) of an estimated position."""
@@ -172,25 +200,49 @@ class GravityMatcher:
             n0 + (lat_rad - self.lat0) * self._m_per_rad[0],
         )
 
-    def update(self, f: Eskf, t: float, gravity_mgal: float) -> MatchResult:
-        """Reduce one reading, match it to the map and fuse it into ``f``."""
-        res = self._update(f, t, gravity_mgal)
-        self.results.append(res)
+    def update(self, f: Eskf, t: float, gravity_mgal: float) -> MatchResult | None:
+        """Reduce one reading; fuse the window when it is full. The result, or None meanwhile."""
+        res = self._add(f, t, gravity_mgal)
+        if res is not None:
+            self.results.append(res)
         return res
 
-    def _update(self, f: Eskf, t: float, gravity_mgal: float) -> MatchResult:
+    def _add(self, f: Eskf, t: float, gravity_mgal: float) -> MatchResult | None:
         if not math.isfinite(gravity_mgal):
             return MatchResult(t, False, reason="gravimeter reading not finite")
         ins = f.ins
-        lat, lon, h = ins.lat, ins.lon, ins.h
+        lat, h = ins.lat, ins.h
+        v_e, v_n, v_u = (float(x) for x in ins._v)
+        depth = max(-h, 0.0)
+        e, n = self.map_position(lat, ins.lon)
+        if not bool(self.stored.grid.contains(e, n)):
+            self._buf.clear()
+            self._t0 = None
+            return MatchResult(t, False, reason="estimate off the stored map")
+        a_up = 0.0
+        if self._last_vu is not None and t > self._last_vu[0]:
+            a_up = (v_u - self._last_vu[1]) / (t - self._last_vu[0])
+        self._last_vu = (t, v_u)
+        anomaly = gravity_mgal - earth.normal_gravity_in_water_mgal(lat, depth)
+        anomaly += earth.eotvos_mgal(v_e, v_n, lat) - a_up / MGAL
+        if self._t0 is None:
+            self._t0 = t
+        self._buf.append((anomaly, e, n))
+        if t - self._t0 < self.window_s - 1e-9:
+            return None
+        res = self._fuse(f, t)
+        self._buf.clear()
+        self._t0 = None
+        return res
+
+    def _fuse(self, f: Eskf, t: float) -> MatchResult:
+        grid = self.stored.grid
+        buf = np.asarray(self._buf)
+        ee, nn = buf[:, 1], buf[:, 2]
+        ins = f.ins
+        lat, h = ins.lat, ins.h
         v_e, v_n = float(ins._v[0]), float(ins._v[1])
         depth = max(-h, 0.0)
-        e, n = self.map_position(lat, lon)
-        grid = self.stored.grid
-        if not bool(grid.contains(e, n)):
-            return MatchResult(t, False, reason="estimate off the stored map")
-        anomaly = gravity_mgal - earth.normal_gravity_in_water_mgal(lat, depth)
-        anomaly += earth.eotvos_mgal(v_e, v_n, lat)
         r_m, r_n = earth.principal_radii(lat)
         m_n, m_e = r_m + h, (r_n + h) * math.cos(lat)
         # SITAN's window from the filter's horizontal position covariance (m²).
@@ -198,9 +250,14 @@ class GravityMatcher:
         p_pos = jac @ f.P[I_LAT : I_LON + 1, I_LAT : I_LON + 1] @ jac
         sig = math.sqrt(max(float(np.linalg.eigvalsh(p_pos)[-1]), 0.0))
         half = int(min(max(math.ceil(sig / min(grid.spacing_m)), 1), self.stored.max_half_window))
-        h_e, h_n = sitan_slope(grid, np.array([e]), np.array([n]), np.array([half]))[0]
-        z = float(grid.value(e, n)) - anomaly
-        var = self.stored.variance_mgal2 + linearization_variance(grid, e, n, half, h_e, h_n)
+        slopes = sitan_slope(grid, ee, nn, np.full(ee.size, half))
+        h_e, h_n = (float(x) for x in slopes.mean(axis=0))
+        z = float(np.mean(grid.value(ee, nn))) - float(buf[:, 0].mean())
+        var = (
+            self.stored.map_variance_mgal2
+            + self.stored.sigma_gravimeter_mgal**2 / len(buf)
+            + linearization_variance(grid, float(ee[-1]), float(nn[-1]), half, h_e, h_n)
+        )
         row = np.zeros(DIM)
         eps = 1e-6
         dgamma_dlat = (
@@ -212,7 +269,7 @@ class GravityMatcher:
         row[I_H] = -earth.POINCARE_PREY_MGAL_PER_M if depth > 0 else 0.0
         row[I_VE] = -(2.0 * earth.OMEGA_IE * math.cos(lat) + 2.0 * v_e / earth.A_M) / MGAL
         row[I_VN] = -(2.0 * v_n / earth.A_M) / MGAL
-        upd = f.update_scalar("map", z, row, var)
+        upd = f.update_scalar("map", z, row, max(var, 1e-6))
         return MatchResult(t, upd.applied, z, half, "" if upd.applied else upd.reason, upd)
 
 
