@@ -1,13 +1,13 @@
 """wang2023 in the twin: the planned route flown with gravity matching, RMSE against the PCRB.
 
 Runs the campaign ``scenarios/campaigns/gravity_aided.toml`` (the REMUS flies the PCRB-A* route
-it planned at launch on its stored map, ``scenarios/gravity_aided.toml``, over 8 seeds) through
+it planned at launch on its stored map, ``scenarios/gravity_aided.toml``, over 4 seeds) through
 the campaign machinery (local worker pool; finished runs are kept and reused), reads the Parquet
 rows back and writes ``benchmarks/results/gravity_aided_twin.md``: each filter's position RMSE
 along the flown path beside the posterior Cramér–Rao bound along the same path, with 95 %
 bootstrap CIs over seeds. Nothing in the tables is typed in.
 
-Run: ``python benchmarks/gravity_aided_twin.py [--workers 2] [--runs DIR]`` (about 20 min on two
+Run: ``python benchmarks/gravity_aided_twin.py [--workers 2] [--runs DIR]`` (about 15 min on two
 cores).
 """
 

@@ -14,6 +14,7 @@ from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
 from sensors.polarimeter.hardware import HardwareErrors, LensTolerance
 from sensors.polarimeter.render import OpticsConfig
+from tests.scenario_helpers import minimal_scenario
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.snell import SnellWindowMethod
@@ -88,21 +89,7 @@ def test_a_focal_length_error_scales_the_measured_tilt():
 
 
 def _scenario(hardware):
-    return parse_scenario(
-        {
-            "name": "t",
-            "duration_s": 10.0,
-            "start_utc": "2021-07-31T04:00:00Z",
-            "place": {"latitude_deg": 36.0, "longitude_deg": 120.0},
-            "mission": {
-                "kind": "legs",
-                "legs": [
-                    {"heading_deg": 0.0, "speed_mps": 1.0, "duration_s": 10.0, "depth_m": 2.0}
-                ],
-            },
-            "hardware": hardware,
-        }
-    )
+    return minimal_scenario(hardware=hardware)
 
 
 def test_the_scenario_table_switches_correction_off_and_rejects_bad_values():

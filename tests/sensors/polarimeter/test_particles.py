@@ -14,6 +14,7 @@ from sensors.polarimeter.bubbles import BubbleDraw, bubble_radiance
 from sensors.polarimeter.particles import MarineSnow
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
+from tests.scenario_helpers import minimal_scenario
 from twin.world.assembly import optics_config
 
 SUN = np.array([math.cos(math.radians(40)), 0.0, math.sin(math.radians(40))])
@@ -110,23 +111,8 @@ def test_no_marine_snow_in_a_tank_or_in_air():
     assert _frame("marine_snow", depth=-1.0)[1].particles == 0
 
 
-def _scenario(optics: dict, scene: str = "open_sea"):
-    return parse_scenario(
-        {
-            "name": "p",
-            "duration_s": 10.0,
-            "scene": scene,
-            "start_utc": "2021-07-31T04:00:00Z",
-            "place": {"latitude_deg": 36.0, "longitude_deg": 120.0},
-            "mission": {
-                "kind": "legs",
-                "legs": [
-                    {"heading_deg": 0.0, "speed_mps": 1.0, "duration_s": 10.0, "depth_m": 2.0}
-                ],
-            },
-            "optics": optics,
-        }
-    )
+def _scenario(optics: dict):
+    return minimal_scenario(optics=optics)
 
 
 def test_a_scenario_has_marine_snow_unless_it_says_ideal_or_is_a_tank():
