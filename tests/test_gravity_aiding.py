@@ -242,6 +242,8 @@ def test_a_route_or_a_launch_point_off_the_map_is_a_clear_error():
         _scenario(gravity={"launch_km": [0.5, 0.5]})
     with pytest.raises(ScenarioError, match="stored_spacing_m"):
         _scenario(gravity={"stored_spacing_m": 750.0})
+    with pytest.raises(ScenarioError, match="wang2023 map's 1000 m nodes"):
+        _scenario(gravity={"map": "wang2023", "stored_spacing_m": 1500.0})
     with pytest.raises(ScenarioError, match=r"gravity\.map"):
         _scenario(gravity={"map": "sandwell"})
 
