@@ -362,3 +362,11 @@ def test_the_recording_and_the_metrics_have_the_map_the_route_and_the_bound(tmp_
         "/gravity/map/ins",
     ):
         assert entity in found, entity
+
+
+def test_matching_off_plans_on_the_map_but_fuses_nothing():
+    s = parse_scenario({**PLANNED, "gravity": {**PLANNED["gravity"], "matching": False}})
+    sim = build_simulation(s)
+    assert sim.route is not None and sim.navigators["ins"].matcher is None
+    sim.fly(80.0)
+    assert sim.navigators["ins"].filter.counts["map"] == 0

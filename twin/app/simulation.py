@@ -236,8 +236,9 @@ def _stored_map(
 ) -> StoredMap | None:
     """The anomaly map the vehicle carries (drawn per run from ``seed``), or None.
 
-    Only a vehicle with a gravimeter and gravity matching switched on carries one. It is told
-    the map's σ_m and the gravimeter's datasheet noise (its declared knowledge).
+    A vehicle with a gravimeter and gravity matching switched on carries one, and so does one
+    with a planned mission (it plans on it). It is told the map's σ_m and the gravimeter's
+    datasheet noise (its declared knowledge).
     """
     g = scenario.gravity
     meter = next((x for x in suite.sensors if x.kind == "gravimeter"), None)
@@ -307,6 +308,7 @@ def _navigators(
         else EskfConfig.for_imu(_imu_grade(imu), gate_probability=nav.gate_probability, ins=ins)
     )
     cfg = NavigatorConfig(
+        map_aiding=scenario.gravity.matching,
         compass_rate_hz=nav.compass_rate_hz,
         gravity_aiding=nav.gravity_aiding,
         depth_aiding=nav.depth_aiding,
