@@ -57,7 +57,10 @@ class GravityScore:
         pts = np.asarray(self.path_m)
         m = sim.scenario.mission
         q = m.q_rate_m2_per_s if isinstance(m, PlannedMission) else DEFAULT_Q_RATE_M2_PER_S
-        speed = getattr(m, "speed_mps", 1.5)
+        # Q_n = Q_t d / V (eq. 25) with V the mean speed flown: Q grows with the time elapsed.
+        flown = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        elapsed = self.t[-1] - self.t[0]
+        speed = flown / elapsed if flown > 0 and elapsed > 0 else 1.0
         p0 = 1.0e6
         if sim.navigators:
             nav = next(iter(sim.navigators.values()))

@@ -85,6 +85,10 @@ class StoredMap:
         sigma_map_mgal: Declared 1σ error of the map's nodes (σ_m of eq. 3).
         sigma_gravimeter_mgal: Declared 1σ noise of the gravimeter's readings (σ_g).
         max_half_window: Largest half-width L of the SITAN slope fit (nodes).
+        variance_mgal2: Eq. 3's R for one reading (derived: σ_m², C₀β²δ⁴/4 with the map's own
+            variance and correlation distance, σ_g²).
+        map_variance_mgal2: Its map part alone (σ_m² and the resolution term), which averaging
+            readings does not reduce.
     """
 
     grid: GravityGrid
