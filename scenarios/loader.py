@@ -952,20 +952,8 @@ def _gravity(t: _Table | None) -> Gravity | None:
         gravity = dataclasses.replace(gravity, launch_km=launch)
     if gravity.map == "file" and not gravity.file:
         t.report.add(t.at("file"), 'missing; required with map = "file": a NetCDF/GeoTIFF path')
-    if gravity.map == "seafloor":
-        ratio = gravity.stored_spacing_m / gravity.spacing_m
-        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            t.report.add(
-                t.at("stored_spacing_m"),
-                f"{_show(gravity.stored_spacing_m)} is not a whole multiple of spacing_m = "
-                f"{_show(gravity.spacing_m)}; the stored map is every k-th node of the field",
-            )
-        if min(gravity.size_km) * 1000.0 < 4 * gravity.stored_spacing_m:
-            t.report.add(
-                t.at("size_km"),
-                f"{list(gravity.size_km)} km holds fewer than 4 stored-map nodes a side "
-                f"(stored_spacing_m = {_show(gravity.stored_spacing_m)}); allowed: larger",
-            )
+    # The stored map's spacing against the field's: twin.world.gravity_area.check_gravity (it
+    # knows every map's node spacing and extent, a file's included).
     return gravity
 
 

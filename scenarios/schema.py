@@ -273,7 +273,7 @@ class Gravity:
             modelled at ``spacing_m`` (seeded by ``map_seed``); ``"wang2023"``: the 100 × 100 km
             map of the PCRB study's tests (``twin.world.gravity.wang2023_seafloor``, 1 km);
             ``"file"``: a NetCDF/GeoTIFF grid (``file``, ``variable``) resampled to ``spacing_m``.
-        file: Path of the grid file (``map = "file"``), relative to the scenario's folder.
+        file: Path of the grid file (``map = "file"``), relative to the working directory.
         variable: Its data variable ('' = the only one).
         size_km: (East, North) extent of a ``"seafloor"`` map.
         spacing_m: Node spacing of the world's field (``"seafloor"``, ``"file"``).

@@ -15,8 +15,8 @@ interval T = 1/rate it reads the mean of
 * E(v) = 2Ω v_E cos φ + (v_E² + v_N²)/R: the Eötvös effect of moving over the rotating Earth
   (Harlan 1968, Geophysics 33(3)), with the interval's mean velocity — 14.6 mGal per m/s of
   eastward speed at the equator, so the vehicle must correct it with its own velocity estimate;
-* a_up: the interval's mean vertical acceleration (the change of the mean vertical velocity
-  between consecutive intervals): a diving or climbing AUV's depth changes read as gravity;
+* a_up: the interval's mean vertical acceleration (the change of the vertical velocity over the
+  interval): a diving or climbing AUV's depth changes read as gravity;
 * b_0: the offset left after the meter is tied to a known station before the dive; ḃ: a linear
   drift (spring ageing); n: white noise per output.
 
@@ -50,8 +50,6 @@ from sensors.registry import register
 from twin.core import earth
 from twin.core.gravity_map import GravityGrid
 
-MGAL = 1e-5
-"""1 mGal in m/s²."""
 SECONDS_PER_DAY = 86400.0
 
 
@@ -202,7 +200,7 @@ class Gravimeter(Sensor):
             + self._drift_per_s * (t - self._t0)
             + self.spec.noise_mgal * float(rng.standard_normal())
         )
-        accel = a_up / MGAL
+        accel = a_up / earth.MGAL_MPS2
         self.truth = GravimeterTruth(anomaly, normal, eotvos, accel, error)
         return {"gravity_mgal": np.array([normal + anomaly - eotvos + accel + error])}
 

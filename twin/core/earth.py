@@ -81,13 +81,17 @@ def normal_gravity(lat_rad: float, h_m: float = 0.0) -> float:
     )
 
 
+MGAL_MPS2 = 1e-5
+"""1 mGal in m/s²."""
 #: Newton's constant (CODATA 2018) and sea water's density, for the water layer's attraction.
 G_NEWTON = 6.674e-11
 RHO_SEAWATER_KG_M3 = 1030.0
 FREE_AIR_MGAL_PER_M = 0.3086
 #: Poincaré–Prey: the vertical gradient of gravity inside a water layer, mGal/m (positive down):
 #: down through water gravity grows by the free-air gradient less twice the layer's attraction.
-POINCARE_PREY_MGAL_PER_M = FREE_AIR_MGAL_PER_M - 4 * math.pi * G_NEWTON * RHO_SEAWATER_KG_M3 * 1e5
+POINCARE_PREY_MGAL_PER_M = (
+    FREE_AIR_MGAL_PER_M - 4 * math.pi * G_NEWTON * RHO_SEAWATER_KG_M3 / MGAL_MPS2
+)
 
 
 def normal_gravity_in_water_mgal(lat_rad: float, depth_m: float = 0.0) -> float:
@@ -96,7 +100,7 @@ def normal_gravity_in_water_mgal(lat_rad: float, depth_m: float = 0.0) -> float:
     The anomaly a gravimeter's reading is reduced to is relative to this: Somigliana's closed form
     at the surface (:func:`normal_gravity`) plus the Poincaré–Prey gradient below it.
     """
-    return normal_gravity(lat_rad) * 1e5 + POINCARE_PREY_MGAL_PER_M * max(float(depth_m), 0.0)
+    return normal_gravity(lat_rad) / MGAL_MPS2 + POINCARE_PREY_MGAL_PER_M * max(float(depth_m), 0.0)
 
 
 def eotvos_mgal(v_east_mps: float, v_north_mps: float, lat_rad: float) -> float:
@@ -106,7 +110,7 @@ def eotvos_mgal(v_east_mps: float, v_north_mps: float, lat_rad: float) -> float:
     speed at the equator.
     """
     centrifugal = 2.0 * OMEGA_IE * v_east_mps * math.cos(lat_rad)
-    return (centrifugal + (v_east_mps**2 + v_north_mps**2) / A_M) * 1e5
+    return (centrifugal + (v_east_mps**2 + v_north_mps**2) / A_M) / MGAL_MPS2
 
 
 def gravity_enu(lat_rad: float, h_m: float = 0.0) -> FloatArray:

@@ -160,14 +160,21 @@ def check_gravity(scenario: Scenario) -> list[str]:
         assert field is not None
         extent = field.extent_m
         spacing = float(min(field.spacing_m))
+    e0, e1, n0, n1 = extent
     ratio = g.stored_spacing_m / spacing
-    if g.map != "seafloor" and (abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1):
-        # (the loader checks a seafloor's, whose spacing is the table's own)
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
         problems.append(
             f"gravity.stored_spacing_m: {g.stored_spacing_m:g} is not a whole multiple of the "
-            f"{g.map} map's {spacing:g} m nodes; the stored map is every k-th node of the field"
+            f"{g.map} map's {spacing:g} m nodes (spacing_m); the stored map is every k-th node "
+            "of the field"
         )
-    e0, e1, n0, n1 = extent
+    elif min(e1 - e0, n1 - n0) < 4 * g.stored_spacing_m:
+        problems.append(
+            f"gravity.stored_spacing_m: {g.stored_spacing_m:g} leaves fewer than 4 stored-map "
+            f"nodes a side of the {(e1 - e0) / 1e3:g} × {(n1 - n0) / 1e3:g} km map; allowed: "
+            "smaller, or a larger map (size_km)"
+        )
+        return problems
     le, ln = launch_on_map(g, extent)
     margin = EDGE_MARGIN_NODES * max(g.stored_spacing_m, spacing)
     inside = (e0 + margin, e1 - margin, n0 + margin, n1 - margin)

@@ -40,12 +40,11 @@ import numpy as np
 
 from twin.core import earth
 from twin.core.gravity_map import GravityGrid
-from twin.onboard.eskf import DIM, Eskf, UpdateResult
+from twin.onboard.eskf import DIM, DV, I_H, I_LAT, I_LON, Eskf, UpdateResult
 from twin.onboard.gravity.pcrb import observation_variance
 from twin.onboard.gravity.sitan import sitan_slope
 
-MGAL = 1e-5
-I_VE, I_VN, I_LAT, I_LON, I_H = 3, 4, 6, 7, 8
+I_VE, I_VN = DV.start, DV.start + 1  # δv_E, δv_N in the ESKF's state
 
 
 def correlation_distance_m(grid: GravityGrid) -> float:
@@ -228,7 +227,7 @@ class GravityMatcher:
             a_up = (v_u - self._last_vu[1]) / (t - self._last_vu[0])
         self._last_vu = (t, v_u)
         anomaly = gravity_mgal - earth.normal_gravity_in_water_mgal(lat, depth)
-        anomaly += earth.eotvos_mgal(v_e, v_n, lat) - a_up / MGAL
+        anomaly += earth.eotvos_mgal(v_e, v_n, lat) - a_up / earth.MGAL_MPS2
         if self._t0 is None:
             self._t0 = t
         self._buf.append((anomaly, e, n))
@@ -271,8 +270,10 @@ class GravityMatcher:
         row[I_LAT] = h_n * m_n + dgamma_dlat
         row[I_LON] = h_e * m_e
         row[I_H] = -earth.POINCARE_PREY_MGAL_PER_M if depth > 0 else 0.0
-        row[I_VE] = -(2.0 * earth.OMEGA_IE * math.cos(lat) + 2.0 * v_e / earth.A_M) / MGAL
-        row[I_VN] = -(2.0 * v_n / earth.A_M) / MGAL
+        # −∂E/∂v of the Eötvös effect (mGal per m/s).
+        row[I_VE] = -(2.0 * earth.OMEGA_IE * math.cos(lat) + 2.0 * v_e / earth.A_M)
+        row[I_VE] /= earth.MGAL_MPS2
+        row[I_VN] = -(2.0 * v_n / earth.A_M) / earth.MGAL_MPS2
         upd = f.update_scalar("map", z, row, max(var, 1e-6))
         return MatchResult(t, upd.applied, z, half, "" if upd.applied else upd.reason, upd)
 
