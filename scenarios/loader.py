@@ -35,11 +35,13 @@ from scenarios.schema import (
     LENS_MODELS,
     MISSION_KINDS,
     MOUNTING_MODELS,
+    NAV_ALIGNMENTS,
     NAV_TUNINGS,
     NAV_VARIANTS,
     PARTICLE_MODELS,
     SCENES,
     SKY_POLARIZATION_MODELS,
+    SPEED_CONTROLS,
     SUN_MEASUREMENTS,
     TANK_FLOOR_DEPTH_M,
     TANK_LENGTH_M,
@@ -783,7 +785,15 @@ _MISSION_KEYS = {
         "radius_m",
         "speed_mps",
     ),
-    "planned": ("kind", "acceptance_radius_m", "goal_m", "depth_m", "speed_mps", "q_rate_m2_per_s"),
+    "planned": (
+        "kind",
+        "acceptance_radius_m",
+        "goal_m",
+        "depth_m",
+        "speed_mps",
+        "q_rate_m2_per_s",
+        "lookahead_m",
+    ),
 }
 
 
@@ -829,6 +839,7 @@ def _mission(t: _Table | None) -> Mission | None:
             depth_m=depth,
             speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
             q_rate_m2_per_s=t.number("q_rate_m2_per_s", POSITIVE, default=100.0),
+            lookahead_m=t.number("lookahead_m", NON_NEGATIVE, default=0.0),
             acceptance_radius_m=accept,
         )
     else:
@@ -1006,6 +1017,7 @@ def _autopilot(t: _Table | None) -> Autopilot | None:
         Autopilot,
         rate_hz=t.number("rate_hz", RATE_HZ, default=10.0),
         attitude_source=t.string("attitude_source", choices=ATTITUDE_SOURCES, default="truth"),
+        speed_control=t.string("speed_control", choices=SPEED_CONTROLS, default="feedback"),
     )
     t.finish()
     return autopilot
@@ -1060,6 +1072,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
         gate_probability=t.number("gate_probability", GATE_PROBABILITY, default=0.999),
         sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="vector"),
         tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
+        alignment=t.string("alignment", choices=NAV_ALIGNMENTS, default="paper"),
     )
     t.finish()
     if nav is not None and nav.steer_on == "":
@@ -1207,6 +1220,12 @@ def _navigation_checks(
             f"compass variants {compass} need a camera; set sensors.polarimeter "
             '(e.g. "phx050s_p_bin4") or keep only "ins"',
         )
+    if nav.alignment == "gyrocompass" and nav.tuning == "paper":
+        report.add(
+            "navigation.alignment",
+            '"gyrocompass" needs the IMU\'s datasheet, which navigation.tuning = "paper" ignores; '
+            'set tuning = "imu" or "datasheet", or alignment = "paper"',
+        )
     if autopilot is not None and autopilot.attitude_source == "estimate" and not nav.variants:
         report.add(
             "autopilot.attitude_source",
@@ -1237,9 +1256,11 @@ def _buildable_checks(scenario: Scenario, source: str) -> None:
     ``run`` would reject deep inside (unknown presets, bad ``*_overrides`` fields, a binning that
     leaves no image, a compass rate above the camera's frame rate).
     """
-    from twin.world.assembly import check_sensors  # heavy (mujoco, the optics): only when needed
+    # Heavy (mujoco, the optics): only when needed.
+    from twin.app.simulation import check_navigation
+    from twin.world.assembly import check_sensors
 
-    problems = check_sensors(scenario)
+    problems = check_sensors(scenario) + check_navigation(scenario)
     if problems:
         raise ScenarioError(problems, source)
 

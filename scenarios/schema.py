@@ -63,6 +63,7 @@ CURRENT_KINDS: tuple[str, ...] = ("none", "constant", "profile", "gauss_markov")
 
 AttitudeSource: TypeAlias = Literal["truth", "estimate"]
 ATTITUDE_SOURCES: tuple[str, ...] = ("truth", "estimate")
+SPEED_CONTROLS: tuple[str, ...] = ("feedback", "propeller")
 
 # The tank scene (models/auv/scene_tank.xml): 12 m (East) x 6 m (North) x 4 m deep, centred on the
 # world origin, water surface at z = 0.
@@ -356,7 +357,8 @@ class Hardware:
 #: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
 #: aids the filter (POL/INS, LIG/INS, ...).
 NAV_VARIANTS: tuple[str, ...] = ("ins", "lig", "pol", "roia", "snell", "moi", "patz", "ht")
-NAV_TUNINGS: tuple[str, ...] = ("imu", "paper")
+NAV_TUNINGS: tuple[str, ...] = ("imu", "datasheet", "paper")
+NAV_ALIGNMENTS: tuple[str, ...] = ("paper", "gyrocompass")
 SUN_MEASUREMENTS: tuple[str, ...] = ("vector", "azimuth")
 
 
@@ -380,9 +382,16 @@ class Navigation:
         sun_measurement: ``"vector"``: the full solar vector aids all three attitude angles (the
             LIG paper's eqs. 20–24); ``"azimuth"``: only its azimuth (the heading), leaving roll
             and pitch to gravity — robust to the compass's elevation bias under water.
-        tuning: ``"imu"``: P0 and Q from the declared IMU's datasheet (``EskfConfig.for_imu``);
-            ``"paper"``: the LIG paper's §3.3 values as printed (overconfident for the paper's
-            own IMU model: docs/navigation.md).
+        tuning: ``"imu"``: P0 and Q from the declared IMU's datasheet (``EskfConfig.for_imu``),
+            never below the LIG paper's values; ``"datasheet"``: from the datasheet alone, with
+            the rate-proportional gyro errors following the measured turn rate (for a
+            navigation-grade IMU, which the paper's floors would swamp); ``"paper"``: the LIG
+            paper's §3.3 values as printed (overconfident for the paper's own IMU model:
+            docs/navigation.md).
+        alignment: The filters' initial attitude σ. ``"paper"``: the LIG paper's 0.5° per
+            axis; ``"gyrocompass"``: what a 10-minute stationary fine alignment leaves with the
+            declared IMU (tilt = accelerometer bias / g, heading = gyro error / horizontal Earth
+            rate: ``twin.onboard.alignment``); refused for an IMU that cannot find north.
     """
 
     variants: tuple[str, ...] = ()
@@ -394,6 +403,7 @@ class Navigation:
     gate_probability: float = 0.999
     sun_measurement: str = "vector"
     tuning: str = "imu"
+    alignment: str = "paper"
 
     @property
     def steering_variant(self) -> str | None:
@@ -408,10 +418,15 @@ class Autopilot:
     """The autopilot's loop rate and where it reads attitude from.
 
     ``"estimate"`` needs the navigation filter; until it exists the consumer may refuse it.
+    ``speed_control``: ``"feedback"`` holds speed with the propeller map plus an integral on the
+    navigation source's speed; ``"propeller"`` with the declared propeller map alone (open-loop
+    revolutions, as a vehicle without a water-speed sensor runs: steering on the estimate, its
+    speed would be the INS's ground speed, which carries the INS's velocity error).
     """
 
     rate_hz: float = 10.0
     attitude_source: AttitudeSource = "truth"
+    speed_control: str = "feedback"
 
 
 @dataclass(frozen=True, slots=True)

@@ -287,6 +287,29 @@ IMU_PRESETS: MappingProxyType[str, ImuSpec] = MappingProxyType(
             accel_scale_factor_ppm=100.0,
             accel_misalignment_mrad=0.1,
         ),
+        # Honeywell HG9900, a navigation-grade ring-laser-gyro IMU, from its brochure
+        # (N61-1638-000-000) as transcribed by IS4S NavToolkit's ``hg9900_model`` (1σ): gyro bias
+        # 0.0035 °/h, ARW 0.002 °/√h (max), scale factor 5 ppm; accelerometer bias 25 µg, scale
+        # factor 100 ppm; no velocity random walk listed (0 here). The brochure's bias figures
+        # are taken as run-to-run (turn-on) constants; ASSUMPTIONS: an in-run instability of a
+        # tenth of them with τ_c = 3600 s (NavToolkit assumes its τ too), misalignment 0.05 mrad
+        # (10″, a calibrated navigation-grade cluster), and 100 Hz (the unit's own output is
+        # faster; the twin's INS integrates at 100 Hz for every preset).
+        "hg9900": ImuSpec.from_datasheet(
+            rate_hz=100.0,
+            gyro_arw_deg_rt_h=0.002,
+            gyro_bias_instability_deg_h=0.00035,
+            gyro_bias_corr_time_s=3600.0,
+            gyro_turn_on_bias_deg_h=0.0035,
+            gyro_scale_factor_ppm=5.0,
+            gyro_misalignment_mrad=0.05,
+            accel_vrw_ug_rt_hz=0.0,
+            accel_bias_instability_ug=2.5,
+            accel_bias_corr_time_s=3600.0,
+            accel_turn_on_bias_ug=25.0,
+            accel_scale_factor_ppm=100.0,
+            accel_misalignment_mrad=0.05,
+        ),
         # Every error zero: the readings are the true kinematics (Earth terms included).
         "ideal": ImuSpec(),
     }

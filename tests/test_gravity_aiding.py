@@ -183,6 +183,12 @@ def test_the_updates_of_a_filter_started_at_the_truth_are_consistent():
     nis = np.array([m.update.nis for m in res])
     # χ²(1) has mean 1: 19 draws give a mean within ~1 of it (σ of the mean √(2/19) = 0.32).
     assert 0.2 < nis.mean() < 2.0
+    # A window covers ~90 m of a 500 m node: the map's part of R counts 500/90 times (the
+    # windows within a node share its error), on top of the meter's noise averaged over 60 s.
+    stored = sim.stored_map
+    assert stored is not None and stored.map_variance_mgal2 > 0
+    floor = stored.map_variance_mgal2 * 500.0 / (1.5 * 61.0)
+    assert all(m.variance_mgal2 > 0.9 * floor for m in res)
     # The filter's position error lies within its own 3σ.
     est = nav.estimate()
     e, n = nav.local_en(est)
@@ -193,9 +199,13 @@ def test_the_updates_of_a_filter_started_at_the_truth_are_consistent():
     assert abs(n - tr.position_n[1]) < 3 * sig_n and abs(e - tr.position_n[0]) < 3 * sig_e
 
 
-@pytest.mark.parametrize("imu", ["tactical_fog"])
-def test_gravity_matching_bounds_the_position_error_the_ins_alone_lets_grow(imu):
-    """900 s over a 4-mGal abyssal-hill map: matched ≤ 400 m, and better than the INS alone."""
+def test_gravity_matching_bounds_the_position_error_the_ins_alone_lets_grow():
+    """900 s over a 4-mGal abyssal-hill map with the navigation-grade INS the twin recommends.
+
+    Matched: within 200 m and better than the same INS alone (one seed: a regression check, not
+    a statistic; the benchmark has the statistics). The tactical FOG with the paper's alignment
+    cannot use the map (its north σ stays above 4 km: docs/gravity.md).
+    """
     data = {
         **BASE,
         "duration_s": 900.0,
@@ -207,7 +217,13 @@ def test_gravity_matching_bounds_the_position_error_the_ins_alone_lets_grow(imu)
                 {"to_m": [1000.0, -300.0], "depth_m": 50.0, "speed_mps": 1.5},
             ],
         },
-        "sensors": {"gravimeter": "at1m", "imu": imu},
+        "sensors": {"gravimeter": "at1m", "imu": "hg9900"},
+        "navigation": {
+            "variants": ["ins"],
+            "tuning": "datasheet",
+            "alignment": "gyrocompass",
+            "gravity_aiding": False,
+        },
     }
     errors = {}
     for matching in (True, False):
@@ -220,7 +236,7 @@ def test_gravity_matching_bounds_the_position_error_the_ins_alone_lets_grow(imu)
         errors[matching] = math.hypot(e - tr.position_n[0], n - tr.position_n[1])
         if matching:
             assert nav.filter.counts["map"] >= 12  # a 60 s window a time
-    assert errors[True] < 400.0
+    assert errors[True] < 200.0
     assert errors[True] < errors[False]
 
 

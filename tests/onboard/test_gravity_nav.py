@@ -53,6 +53,22 @@ def test_on_a_sloping_map_the_bound_settles_along_the_slope_and_drifts_across_it
     assert rmse_bound_m(p)[-1] == pytest.approx(math.sqrt(pe + 1e6 + 15 * q))
 
 
+def test_a_dense_path_is_measured_once_per_node_spacing():
+    """Looks closer than the node spacing share the map's error: one independent look per δ."""
+    g = _grid(lambda e, n: 0.005 * e + 0.002 * n)
+    coarse = resample(np.array([[5000.0, 5000.0], [35_000.0, 5000.0]]), 31)  # 1 km apart
+    dense = resample(coarse[[0, -1]], 3001)  # 10 m apart
+    per_node = pcrb_along(g, dense, MODEL, update_spacing_m=1000.0)
+    # Same Q over the same distance, measured at the same 31 points: the same bound.
+    np.testing.assert_allclose(per_node[-1], pcrb_along(g, coarse, MODEL)[-1], rtol=1e-9)
+    # Measured at every 10 m point it would claim a hundred times the information.
+    every_point = pcrb_along(g, dense, MODEL)
+    u = np.array([0.005, 0.002]) / math.hypot(0.005, 0.002)  # along the slope
+    assert u @ every_point[-1] @ u < 0.25 * (u @ per_node[-1] @ u)
+    with pytest.raises(ValueError, match="update_spacing_m"):
+        pcrb_along(g, dense, MODEL, update_spacing_m=-1.0)
+
+
 def test_the_observation_variance_is_eq_3():
     assert observation_variance(1.0, 0.0, 0.0, 1000.0, 2.0) == pytest.approx(5.0)
     # C0 β² δ⁴ / 4 with C0 = 100 mGal², correlation distance 10 km (β = 1e-8 /m²), δ = 1 km.

@@ -196,7 +196,7 @@ def test_lists_become_tuples_and_presets_validate() -> None:
     hash(spec)
     for preset in Imu.PRESETS.values():
         preset.validate()
-    assert set(Imu.PRESETS) == {"lig2024", "tactical_fog", "ideal"}
+    assert set(Imu.PRESETS) == {"lig2024", "tactical_fog", "hg9900", "ideal"}
 
 
 def test_registry_create_with_preset_and_overrides() -> None:

@@ -13,6 +13,7 @@ simulate exactly the same thing for the same scenario and seed.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from twin.core.earth import principal_radii
 from twin.core.frames import quat_to_dcm
 from twin.core.messages import ActuatorCommand, Reading
 from twin.core.mission import PlannedMission
+from twin.onboard.alignment import AlignmentError, gyrocompass_sigma
 from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, Setpoint
 from twin.onboard.control.guidance import Guidance, GuidanceStatus
 from twin.onboard.control.navsource import EstimateNav
@@ -37,7 +39,13 @@ from twin.onboard.gravity.planner import PlannedPath, plan
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
 from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
-from twin.world.assembly import build_current, build_plant, build_suite, optics_config
+from twin.world.assembly import (
+    build_current,
+    build_plant,
+    build_suite,
+    make_sensor,
+    optics_config,
+)
 from twin.world.gravity_area import gravity_field, launch_on_map, stored_map
 from twin.world.hydrodynamics import Hydrodynamics
 from twin.world.plant import Plant
@@ -187,17 +195,22 @@ def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
     ini = scenario.initial
     mission = scenario.mission
     route = None
+    lookahead = 8.0  # Guidance's default: a few vehicle lengths
     if isinstance(mission, PlannedMission):
         assert stored is not None  # the loader refuses a planned mission without a map
         route = plan_route(mission, stored, (ini.position_m[0], ini.position_m[1]), navigators)
+        lookahead = mission.lookahead_m or float(min(stored.grid.spacing_m))
         mission = mission.legs_along(route.nodes_m - np.asarray(stored.launch_m))
     # Wheel-over radius: a little over the REMUS model's full-rudder turning radius at cruise
     # (17.9 m at 1.5 m/s, tests/test_plant.py), so the turn is flyable with rudder in reserve.
-    guidance = Guidance(mission, (ini.position_m[0], ini.position_m[1]), turn_radius_m=20.0)
+    guidance = Guidance(
+        mission, (ini.position_m[0], ini.position_m[1]), lookahead_m=lookahead, turn_radius_m=20.0
+    )
     autopilot = Autopilot(
         propeller_map(plant),
         max_rps=plant.params.prop_max_rpm / 60.0,
         max_fin_rad=plant.params.fin_max_rad,
+        speed_feedback=scenario.autopilot.speed_control == "feedback",
     )
     nav: NavSource = TruthNav(plant)
     if scenario.autopilot.attitude_source == "estimate":
@@ -207,6 +220,26 @@ def build_simulation(scenario: Scenario, seed: int | None = None) -> Simulation:
     sim = Simulation(scenario, seed, plant, suite, guidance, autopilot, nav, navigators)
     sim.stored_map, sim.route = stored, route
     return sim
+
+
+def check_navigation(scenario: Scenario) -> list[str]:
+    """What building the filters would refuse, as ``field: message`` lines (``validate`` = ``run``).
+
+    An IMU that cannot find north at the scenario's latitude cannot gyrocompass.
+    """
+    nav = scenario.navigation
+    if not nav.variants or nav.alignment != "gyrocompass" or nav.tuning == "paper":
+        return []
+    s = scenario.sensors
+    try:
+        spec = make_sensor("imu", s.imu, s.imu_overrides).spec
+    except ValueError:
+        return []  # check_sensors reports the IMU itself
+    try:
+        gyrocompass_sigma(_imu_grade(spec), math.radians(scenario.place.latitude_deg))
+    except AlignmentError as exc:
+        return [f'navigation.alignment: "gyrocompass" with sensors.imu {s.imu!r}: {exc}']
+    return []
 
 
 def _imu_grade(spec: Any) -> ImuGrade:
@@ -305,8 +338,19 @@ def _navigators(
     eskf = (
         EskfConfig(gate_probability=nav.gate_probability, ins=ins)
         if nav.tuning == "paper"
-        else EskfConfig.for_imu(_imu_grade(imu), gate_probability=nav.gate_probability, ins=ins)
+        else EskfConfig.for_imu(
+            _imu_grade(imu),
+            gate_probability=nav.gate_probability,
+            ins=ins,
+            datasheet_only=nav.tuning == "datasheet",
+        )
     )
+    if nav.alignment == "gyrocompass":
+        # The loader refused an IMU that cannot gyrocompass here (check_navigation).
+        tilt, heading = gyrocompass_sigma(
+            _imu_grade(imu), math.radians(scenario.place.latitude_deg)
+        )
+        eskf = dataclasses.replace(eskf, p0_attitude_rad=(tilt, tilt, heading))
     cfg = NavigatorConfig(
         map_aiding=scenario.gravity.matching,
         compass_rate_hz=nav.compass_rate_hz,

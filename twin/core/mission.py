@@ -139,6 +139,12 @@ class PlannedMission:
     the position error, summed over its nodes, is least, with the INS's position variance growing
     at ``q_rate_m2_per_s`` per axis (the paper's Q_t: (10 m)² per second). The vehicle then flies
     the route's nodes as waypoint legs (:meth:`legs_along`).
+
+    ``lookahead_m`` is the line-of-sight guidance's look-ahead on those legs; 0 (the default)
+    takes the stored map's node spacing. A vehicle that knows its position to hundreds of metres
+    sees its estimate jump by as much at each map update; with the few-metre look-ahead of a
+    survey leg it turns square to the leg after every jump and zig-zags (the shipped route,
+    seed 0, with 8 m: 3 of 5 legs in 16 000 s, 23.9 km flown for 15.7 km planned).
     """
 
     kind: ClassVar[Literal["planned"]] = "planned"
@@ -147,6 +153,7 @@ class PlannedMission:
     speed_mps: float
     q_rate_m2_per_s: float = 100.0
     acceptance_radius_m: float = 5.0
+    lookahead_m: float = 0.0
 
     def commanded_depths_m(self) -> tuple[float, ...]:
         """Every depth the mission commands."""

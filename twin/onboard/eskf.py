@@ -235,6 +235,11 @@ class EskfConfig:
         static_accel_tol_mps2: Gravity update only when | ‖f̄‖ − γ | is below this (ASSUMPTION).
         static_rate_tol_rad_s: ... and ‖ω̄ − ω_ie^b‖ below this (ASSUMPTION 0.02 rad/s).
         gate_probability: Chi-square gate: accept when NIS < χ²_dof⁻¹(p); 1.0 disables gating.
+        q_rate_gain: Attitude process noise per unit of the measured turn rate (rad/√s per
+            rad/s): the covariance step adds (q_rate_gain · ‖ω̄‖)² to each attitude axis, with ω̄
+            the bias-compensated gyro rate over the step — the allowance for the rate-proportional
+            gyro errors (scale factor, misalignment) that follows what the vehicle does. 0: none
+            (``for_imu`` folds a fixed allowance into ``q_attitude`` instead).
         cov_step_s: Covariance propagation interval (s), at most; also before every update.
         ins: The INS's :class:`~twin.onboard.ins.InsConfig`.
     """
@@ -257,6 +262,7 @@ class EskfConfig:
     static_accel_tol_mps2: float = 0.1
     static_rate_tol_rad_s: float = 0.02
     gate_probability: float = 0.999
+    q_rate_gain: float = 0.0
     cov_step_s: float = 0.1
     ins: InsConfig = field(default_factory=InsConfig)
 
@@ -282,6 +288,7 @@ class EskfConfig:
         _scalar("static_rate_tol_rad_s", self.static_rate_tol_rad_s, 0.0, 100.0, lo_open=True)
         _scalar("gate_probability", self.gate_probability, 0.0, 1.0, lo_open=True)
         _scalar("cov_step_s", self.cov_step_s, 0.0, 10.0, lo_open=True)
+        _scalar("q_rate_gain", self.q_rate_gain, 0.0, 1.0)
         if not isinstance(self.gravity_models_accel_bias, bool):
             raise ValueError(
                 f"EskfConfig.gravity_models_accel_bias = {self.gravity_models_accel_bias!r}: "
@@ -297,6 +304,7 @@ class EskfConfig:
         *,
         typical_rate_rad_s: float = 0.05,
         manoeuvre_time_s: float = 60.0,
+        datasheet_only: bool = False,
         **overrides: Any,
     ) -> EskfConfig:
         """P0 and Q from the IMU's datasheet; every other field the paper's default.
@@ -325,10 +333,27 @@ class EskfConfig:
           and misalignment on manoeuvre accelerations (≲ 0.1 m/s² for an AUV: ≲ 0.1 mm/s²
           of error) are neglected.
 
+        ``datasheet_only=True`` (the scenario's ``navigation.tuning = "datasheet"``) is for an IMU
+        far better than the paper's, whose floors and fixed allowance would swamp it: a
+        navigation-grade unit's ARW (0.002 °/√h) is a fifth of the paper's east/north floor and
+        1/80 of its vertical one, and the fixed allowance (0.09 °/√h for 0.05 mrad of
+        misalignment) is 47 times its ARW — a filter told its level drifts that fast lets weak
+        couplings (depth through Coriolis, the map's Eötvös term) walk its tilt by hundredths of
+        a degree, each a Schuler velocity error of 0.1–1 m/s (docs/gravity.md). So:
+
+        * Q of φ and δv: the datasheet's ARW and VRW alone, no floor;
+        * the rate-proportional allowance follows the *measured* rate: ``q_rate_gain = k √T``,
+          added as (k √T ‖ω̄‖)² over each covariance step (zero on a straight leg, the fixed
+          value above while turning at ω̄);
+        * P0 of ∇ per axis: a scale-factor error acts on the axis's own specific force and a
+          misalignment on the others', so in level flight the horizontal axes (x, y) see
+          misalignment × g and the vertical axis (z) scale factor × g.
+
         Args:
             grade: The declared IMU datasheet.
             typical_rate_rad_s: ω̄ above (rad/s, ≥ 0).
             manoeuvre_time_s: T above (s, > 0).
+            datasheet_only: The datasheet tuning above instead of the paper-floored one.
             **overrides: Any :class:`EskfConfig` field, applied last (e.g. ``ins=...``).
 
         Raises:
@@ -365,7 +390,7 @@ class EskfConfig:
         )
         q_g = grade.gyro_gm_sigma * math.sqrt(2.0 / grade.gyro_bias_corr_time_s)
         q_a = grade.accel_gm_sigma * math.sqrt(2.0 / grade.accel_bias_corr_time_s)
-        fields = {
+        fields: dict[str, Any] = {
             "p0_gyro_bias_rad_s": (p0_g,) * 3,
             "p0_accel_bias_mps2": (p0_a,) * 3,
             "q_attitude": q_att,
@@ -373,6 +398,15 @@ class EskfConfig:
             "q_gyro_bias": (q_g,) * 3,
             "q_accel_bias": (q_a,) * 3,
         }
+        if datasheet_only:
+            a_xy = rss(grade.accel_turn_on_bias, grade.accel_gm_sigma, grade.accel_misalignment * g)
+            a_z = rss(grade.accel_turn_on_bias, grade.accel_gm_sigma, grade.accel_scale_factor * g)
+            fields |= {
+                "p0_accel_bias_mps2": (a_xy, a_xy, a_z),
+                "q_attitude": (grade.gyro_noise_density,) * 3,
+                "q_velocity": (grade.accel_noise_density,) * 3,
+                "q_rate_gain": k_rate * math.sqrt(manoeuvre_time_s),
+            }
         names = {f.name for f in dataclasses.fields(cls)}
         for name in overrides:
             if name not in names:
@@ -714,6 +748,7 @@ class Eskf:
         self._f_sum = [0.0, 0.0, 0.0]
         self._w_sum = [0.0, 0.0, 0.0]
         self._n_sum = 0
+        self._w2_dt = 0.0  # ∫‖ω‖² dt since the last covariance step (the rate allowance)
         self.rejections: list[Rejection] = []
         self.counts: dict[str, int] = {
             "gravity": 0,
@@ -766,6 +801,7 @@ class Eskf:
         ws[1] += w[1]
         ws[2] += w[2]
         self._n_sum += 1
+        self._w2_dt += (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * dt
         self._pending_dt += dt
         if self._pending_dt >= self._cov_step:
             self.propagate_covariance()
@@ -805,9 +841,17 @@ class Eskf:
         phi *= 0.5
         phi += fdt
         phi += self._eye
+        q_diag, qc = self._q_diag, self._qc
+        gain = self.config.q_rate_gain
+        if gain > 0.0:
+            # The rate-proportional allowance over this step: (k √T)² times the mean ‖ω‖².
+            q_diag = q_diag.copy()
+            q_diag[PHI] += gain * gain * self._w2_dt / dt
+            qc = np.diag(q_diag)
+        self._w2_dt = 0.0
         # Q_d = ½ (Φ Q_c Φᵀ + Q_c) Δt, Q_c diagonal: Φ Q_c Φᵀ = (Φ · q) Φᵀ.
-        q = (phi * self._q_diag) @ phi.T
-        q += self._qc
+        q = (phi * q_diag) @ phi.T
+        q += qc
         q *= 0.5 * dt
         p = phi @ self.P @ phi.T
         p += q

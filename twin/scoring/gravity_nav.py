@@ -4,7 +4,8 @@ World side (sees truth and the vehicle's map). Over a run with a stored gravity 
 true path and every variant's position error at the truth rate; at the end it computes the
 posterior Cramér–Rao bound along the *flown* true path — the paper's model (eqs. 17, 20–21): a
 position random walk with the planner's Q_t, the stored map's gradient at the true positions as
-H and the matcher's R (eq. 3) — and sets each variant's position RMSE beside it.
+H and the matcher's R (eq. 3), one measurement per node spacing flown (the map's error is drawn
+per node: closer looks are not independent) — and sets each variant's position RMSE beside it.
 
 What the comparison can and cannot say: the bound is the paper's two-state model, not the
 15-state INS the filter runs, so it bounds a filter whose position error grows as the declared
@@ -39,6 +40,9 @@ class GravityScore:
     t: list[float] = field(default_factory=list)
     path_m: list[tuple[float, float]] = field(default_factory=list)
     errors: dict[str, list[float]] = field(default_factory=dict)
+    # When the vehicle declared a planned mission done, and how far from the goal it truly was.
+    arrived_s: float | None = None
+    goal_miss_m: float | None = None
 
     def add(self, sim: Simulation, truth: Truth, samples: dict[str, dict[str, float]]) -> None:
         stored = sim.stored_map
@@ -47,6 +51,13 @@ class GravityScore:
         e0, n0 = stored.launch_m
         self.t.append(truth.t)
         self.path_m.append((e0 + float(truth.position_n[0]), n0 + float(truth.position_n[1])))
+        mission = sim.scenario.mission
+        if self.arrived_s is None and isinstance(mission, PlannedMission) and sim.status.complete:
+            # Guidance judged arrival on the navigation source: the miss is the truth's distance.
+            self.arrived_s = float(truth.t)
+            self.goal_miss_m = math.dist(
+                (float(truth.position_n[0]), float(truth.position_n[1])), mission.goal_m
+            )
         for name, s in samples.items():
             self.errors.setdefault(name, []).append(s["position_err_m"])
 
@@ -76,7 +87,8 @@ class GravityScore:
             pts = pts[: int(np.argmin(inside))]  # up to where the vehicle left the map
         if len(pts) < 2:
             return np.zeros(len(pts))
-        return rmse_bound_m(pcrb_along(stored.grid, pts, model))
+        spacing = float(min(stored.grid.spacing_m))
+        return rmse_bound_m(pcrb_along(stored.grid, pts, model, update_spacing_m=spacing))
 
     def summary(self, sim: Simulation) -> dict[str, Any] | None:
         """The metrics.json ``gravity`` entry; None for a run without a stored map."""
@@ -96,6 +108,8 @@ class GravityScore:
         if sim.route is not None:
             out["planned_m"] = round(sim.route.length_m, 1)
             out["planner_s"] = round(sim.route.seconds, 4)
+            out["arrived_s"] = None if self.arrived_s is None else round(self.arrived_s, 1)
+            out["goal_miss_m"] = None if self.goal_miss_m is None else round(self.goal_miss_m, 1)
         variants = {}
         for name, nav in sim.navigators.items():
             err = np.asarray(self.errors.get(name, [])[:n])

@@ -120,6 +120,8 @@ class Autopilot:
         gains: Controller gains.
         max_rps: Propeller limit (rev/s).
         max_fin_rad: Fin travel, for anti-windup.
+        speed_feedback: Integrate the navigation source's speed error (False: the propeller map
+            alone, open-loop revolutions).
     """
 
     def __init__(
@@ -129,8 +131,10 @@ class Autopilot:
         *,
         max_rps: float = 1525.0 / 60.0,
         max_fin_rad: float = math.radians(15.0),
+        speed_feedback: bool = True,
     ):
         self._ff = rps_for_speed
+        self.speed_feedback = speed_feedback
         self.gains = gains or AutopilotGains()
         self._max_rps = max_rps
         self._max_fin = max_fin_rad
@@ -185,7 +189,7 @@ class Autopilot:
 
         e_u = sp.speed_mps - nav.speed_mps
         rps = self._feedforward(sp.speed_mps) + g.speed_ki * self._i_speed
-        if 0.0 < rps < self._max_rps:
+        if self.speed_feedback and 0.0 < rps < self._max_rps:
             self._i_speed = max(-10.0, min(10.0, self._i_speed + e_u * dt))
         rps = max(0.0, min(self._max_rps, rps))
         return ActuatorCommand(rudder_rad=rudder, stern_rad=stern, propeller_rps=rps)

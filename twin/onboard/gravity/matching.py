@@ -133,6 +133,7 @@ class MatchResult:
     half_window: int = 0
     reason: str = ""
     update: UpdateResult | None = None
+    variance_mgal2: float = math.nan
 
 
 def linearization_variance(
@@ -256,8 +257,14 @@ class GravityMatcher:
         slopes = sitan_slope(grid, ee, nn, np.full(ee.size, half))
         h_e, h_n = (float(x) for x in slopes.mean(axis=0))
         z = float(np.mean(grid.value(ee, nn))) - float(buf[:, 0].mean())
+        # The map's error is drawn per node and interpolated between them: windows closer than
+        # a node spacing δ share it. Each window is fused as if independent, so it carries
+        # δ/d times the map variance (d: the track it covered) — one independent look per node,
+        # the information the map really holds (and the spacing the bound assumes).
+        track = float(np.sum(np.hypot(np.diff(ee), np.diff(nn))))
+        shared = max(1.0, min(grid.spacing_m) / max(track, 1e-9))
         var = (
-            self.stored.map_variance_mgal2
+            self.stored.map_variance_mgal2 * shared
             + self.stored.sigma_gravimeter_mgal**2 / len(buf)
             + linearization_variance(grid, float(ee[-1]), float(nn[-1]), half, h_e, h_n)
         )
@@ -275,7 +282,8 @@ class GravityMatcher:
         row[I_VE] /= earth.MGAL_MPS2
         row[I_VN] = -(2.0 * v_n / earth.A_M) / earth.MGAL_MPS2
         upd = f.update_scalar("map", z, row, max(var, 1e-6))
-        return MatchResult(t, upd.applied, z, half, "" if upd.applied else upd.reason, upd)
+        reason = "" if upd.applied else upd.reason
+        return MatchResult(t, upd.applied, z, half, reason, upd, max(var, 1e-6))
 
 
 __all__ = [

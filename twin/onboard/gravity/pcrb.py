@@ -83,8 +83,23 @@ def riccati_update(p: FloatArray, h: FloatArray, r: float) -> FloatArray:
     return p - ph[..., :, None] * ph[..., None, :] / s[..., None, None]
 
 
-def pcrb_along(grid: GravityGrid, path_m: ArrayLike, model: GainsModel) -> FloatArray:
-    """The bound P_{k|k} (N, 2, 2) at each point of a path (N, 2) (m), the first updated too."""
+def pcrb_along(
+    grid: GravityGrid, path_m: ArrayLike, model: GainsModel, *, update_spacing_m: float = 0.0
+) -> FloatArray:
+    """The bound P_{k|k} (N, 2, 2) at each point of a path (N, 2) (m), the first updated too.
+
+    Args:
+        grid: The map (its gradient is H).
+        path_m: The path's points (N, 2) in map coordinates (m).
+        model: The paper's parameters.
+        update_spacing_m: Take a measurement only where the path has covered at least this
+            distance since the last one (0: at every point, the paper's paths of 100 points).
+            Each measurement's R holds a map error drawn per node, so looks closer than a node
+            spacing are not independent: a densely sampled path (a flown one, at the truth rate)
+            is bounded with the node spacing here, one independent look per node.
+    """
+    if not (math.isfinite(update_spacing_m) and update_spacing_m >= 0):
+        raise ValueError(f"pcrb_along update_spacing_m: {update_spacing_m!r}; allowed: >= 0 m")
     pts = np.asarray(path_m, dtype=np.float64)
     grid.require_on_map(pts[:, 0], pts[:, 1], "path")
     h = grid.node_gradient(pts[:, 0], pts[:, 1])
@@ -92,9 +107,13 @@ def pcrb_along(grid: GravityGrid, path_m: ArrayLike, model: GainsModel) -> Float
     q = model.q_for(steps)
     out = np.empty((pts.shape[0], 2, 2))
     p = np.eye(2) * model.p0_m2
+    since = math.inf  # the first point is measured
     for k in range(pts.shape[0]):
         p = p + np.eye(2) * q[k]
-        p = riccati_update(p, h[k], model.r_mgal2)
+        since += steps[k]
+        if since >= update_spacing_m:
+            p = riccati_update(p, h[k], model.r_mgal2)
+            since = 0.0
         out[k] = p
     return out
 
