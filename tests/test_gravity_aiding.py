@@ -341,6 +341,27 @@ def test_a_planned_mission_flies_the_route_the_vehicle_planned_on_its_map():
     assert straight - 1000.0 <= sim.route.length_m <= 2.0 * straight
     # The route runs through the map's nodes from the launch node (the map's centre).
     np.testing.assert_allclose(sim.route.nodes_m[0], sim.stored_map.launch_m)
+    # Line of sight looks one map node ahead unless the mission says otherwise.
+    assert sim.guidance._lookahead == pytest.approx(min(sim.stored_map.grid.spacing_m))
+    given = parse_scenario({**PLANNED, "mission": {**PLANNED["mission"], "lookahead_m": 50.0}})
+    assert build_simulation(given).guidance._lookahead == 50.0
+    with pytest.raises(ScenarioError, match=r"mission\.lookahead_m"):
+        parse_scenario({**PLANNED, "mission": {**PLANNED["mission"], "lookahead_m": -1.0}})
+
+
+def test_the_metrics_say_how_far_from_the_goal_the_vehicle_arrived(tmp_path: Path):
+    from twin.app.run import run_scenario
+
+    near = {**PLANNED["mission"], "goal_m": [450.0, 0.0]}
+    m = run_scenario(
+        parse_scenario({**PLANNED, "duration_s": 600.0, "mission": near}),
+        tmp_path / "run",
+        camera=False,
+    )
+    g = m["gravity"]
+    # Steering on truth, it arrives within the acceptance radius of the goal after ~300 s.
+    assert g["arrived_s"] is not None and 200.0 < g["arrived_s"] < 500.0
+    assert g["goal_miss_m"] <= 30.0 + 1e-6
 
 
 def test_a_planned_mission_needs_a_map_and_a_goal_on_it():
@@ -369,6 +390,7 @@ def test_the_recording_and_the_metrics_have_the_map_the_route_and_the_bound(tmp_
     v = g["variants"]["ins"]
     assert v["map_updates"] >= 2 and v["position_rmse_m"] > 0
     assert v["rmse_over_pcrb"] == pytest.approx(v["position_rmse_m"] / g["pcrb_rms_m"], rel=0.05)
+    assert g["arrived_s"] is None and g["goal_miss_m"] is None  # 200 s: still under way
     found = _all_entities(tmp_path / "run" / "recording.rrd")
     for entity in (
         "/gravity/map",

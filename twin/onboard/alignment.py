@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from twin.core import earth
-from twin.onboard.eskf import ImuGrade
+from twin.onboard.eskf_config import ImuGrade
 
 #: ASSUMPTION: a 10-minute stationary fine alignment at the quay before launch.
 ALIGNMENT_TIME_S = 600.0
