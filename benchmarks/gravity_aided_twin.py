@@ -154,6 +154,21 @@ def report(df: pd.DataFrame, source: str) -> list[str]:
                 f"{b:.0f} m; RMSE ≥ PCRB {holds} (ratio {np.nanmean(ratio):.2f}, CI "
                 f"[{lo:.2f}, {hi:.2f}]).{gain}"
             )
+    on = arm(True, "lig")
+    h = {
+        v: float(np.nanmean(on[f"metric.navigation.variants.{v}.heading_rmse_deg"]))
+        for v in variants
+        if f"metric.navigation.variants.{v}.heading_rmse_deg" in on
+    }
+    if {"ins", "lig"} <= set(h):
+        verdicts.append(
+            f"- Why the compass variant is the worse one: its heading RMSE ({h['lig']:.3f}°) is "
+            f"{h['lig'] / h['ins']:.0f}× the gyrocompassed INS's ({h['ins']:.3f}°). The sky "
+            "compass pulls a navigation-grade heading off, and a heading error tilts the level "
+            "through the Earth's rotation, a Schuler velocity error of ~0.37 m/s per mrad "
+            "(docs/gravity.md, effect 1). The compass is worth its weight on an INS that cannot "
+            "gyrocompass, not on this one."
+        )
     return [*lines, "", *verdicts, ""]
 
 

@@ -168,6 +168,43 @@ def test_sigkill_loses_only_runs_in_flight_and_the_same_command_resumes(tmp_path
     assert set(rows["run_id"]) <= set(final["run_id"])
 
 
+def test_resuming_with_an_added_axis_reuses_runs_and_labels_them_with_it(tmp_path: Path) -> None:
+    """A new axis whose values include the base's own reuses the runs already made; their rows
+    then carry the new axis and the new order, so grouping by it finds them."""
+    first = parse_campaign(
+        {
+            "name": "grow",
+            "base": "tank",
+            "seeds": 1,
+            "set": {"duration_s": 2.0},
+            "sweep": [{"path": "initial.depth_m", "values": [1.0]}],
+        }
+    )
+    out = tmp_path / "grow"
+    assert run_campaign(first, out, workers=1) == {"ok": 1}
+    grown = parse_campaign(
+        {
+            "name": "grow",
+            "base": "tank",
+            "seeds": 1,
+            "set": {"duration_s": 2.0},
+            "sweep": [
+                {"path": "water.temperature_c", "values": [10.0, 25.0]},  # 25: the tank's own
+                {"path": "initial.depth_m", "values": [1.0]},
+            ],
+        }
+    )
+    messages: list[str] = []
+    assert run_campaign(grown, out, workers=1, on_message=messages.append) == {"ok": 1}
+    assert any("resuming: 1 of 2" in m for m in messages)
+    rows = load_campaign_results(out)
+    assert len(rows) == 2 and rows["param.water.temperature_c"].notna().all()
+    reused = rows[rows["param.water.temperature_c"] == 25.0]
+    expected = next(r for r in grown.runs if dict(r.params)["water.temperature_c"] == 25.0)
+    assert list(reused["run_id"]) == [expected.run_id]
+    assert list(reused["index"]) == [expected.index]
+
+
 def test_ctrl_c_stops_the_pool_cleanly_and_says_how_to_resume(tmp_path: Path) -> None:
     spec_path = tmp_path / "i.toml"
     spec_path.write_text(SMALL.replace("seeds = 2", "seeds = 6").replace("2.0\n[[", "4.0\n[["))

@@ -582,6 +582,8 @@ def test_for_imu_rejects_bad_arguments_naming_them() -> None:
         EskfConfig.for_imu(lig2024_grade(), typical_rate_rad_s=-1.0)
     with pytest.raises(ValueError, match="manoeuvre_time_s"):
         EskfConfig.for_imu(lig2024_grade(), manoeuvre_time_s=0.0)
+    with pytest.raises(ValueError, match="datasheet_only"):
+        EskfConfig.for_imu(lig2024_grade(), datasheet_only="yes")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="no_such_field"):
         EskfConfig.for_imu(lig2024_grade(), no_such_field=1.0)
     with pytest.raises(ValueError, match="q_velocity"):

@@ -93,6 +93,34 @@ def finished_ids(out: Path) -> set[str]:
     return {p.stem for p in d.glob("*.parquet")} if d.is_dir() else set()
 
 
+def relabel_finished(out: Path, runs: Iterable[Any]) -> int:
+    """Give finished rows the index and swept values of the spec now being run; how many changed.
+
+    A run's identity is its resolved scenario and seed, not its place in a spec: resuming a folder
+    with a spec that adds an axis (one of whose values is the base's own) reuses the runs already
+    made, and their rows must then carry the new axis's column and the new order, or a report
+    grouping by that axis would miss them. Each ``runs`` item is a
+    :class:`~twin.campaign.spec.RunSpec`.
+    """
+    d = out / "runs"
+    changed = 0
+    for run in runs:
+        path = d / f"{run.run_id}.parquet"
+        if not path.exists():
+            continue
+        row = pq.read_table(path).to_pylist()[0]
+        want = {"index": run.index, **{f"param.{k}": v for k, v in run.params}}
+        if all(k in row and row[k] == v for k, v in want.items()):
+            continue
+        stale = [k for k in row if k.startswith("param.") and k not in want]
+        for k in stale:
+            del row[k]
+        row.update(want)
+        _write_atomic(pa.Table.from_pylist([row]), path)
+        changed += 1
+    return changed
+
+
 def load_campaign_results(out: str | Path) -> pd.DataFrame:
     """Every run of a campaign folder as one DataFrame (rows on disk, in run order).
 

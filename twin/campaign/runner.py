@@ -37,6 +37,7 @@ from twin.campaign.results import (
     finished_ids,
     flatten_metrics,
     has_nan,
+    relabel_finished,
     write_row,
     write_timeseries,
 )
@@ -210,6 +211,7 @@ def run_campaign(
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
         say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
+        relabel_finished(out, [r for r in spec.runs if r.run_id in done])
     job = _job(spec)
     counts: dict[str, int] = {}
     bar = _bar(len(todo)) if progress else None

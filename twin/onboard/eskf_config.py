@@ -277,6 +277,10 @@ class EskfConfig:
                 raise ValueError(
                     f"EskfConfig.for_imu {name} = {value!r}: must be a finite number {kind}"
                 )
+        if not isinstance(datasheet_only, bool):
+            raise ValueError(
+                f"EskfConfig.for_imu datasheet_only = {datasheet_only!r}: must be True or False"
+            )
         paper = cls()
         g = earth.G0_MPS2
 
