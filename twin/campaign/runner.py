@@ -192,26 +192,27 @@ def run_campaign(
     say = on_message or (lambda m: print(m, file=sys.stderr))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "campaign.json").write_text(
-        json.dumps(
-            {
-                "name": spec.name,
-                "source": spec.source,
-                "runs": len(spec.runs),
-                "seeds": list(spec.seeds),
-                "axes": {a.name: list(a.values) for a in spec.axes},
-                "combine": spec.combine,
-            },
-            indent=2,
-            default=str,
-        )
-        + "\n"
+    summary = json.dumps(
+        {
+            "name": spec.name,
+            "source": spec.source,
+            "runs": len(spec.runs),
+            "seeds": list(spec.seeds),
+            "axes": {a.name: list(a.values) for a in spec.axes},
+            "combine": spec.combine,
+        },
+        indent=2,
+        default=str,
     )
+    layout = out / "campaign.json"
+    same_layout = layout.exists() and layout.read_text().strip() == summary
+    layout.write_text(summary + "\n")
     done = finished_ids(out)
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
         say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
-        relabel_finished(out, [r for r in spec.runs if r.run_id in done])
+        if not same_layout:  # another spec made some of them: give them this one's labels
+            relabel_finished(out, [r for r in spec.runs if r.run_id in done])
     job = _job(spec)
     counts: dict[str, int] = {}
     bar = _bar(len(todo)) if progress else None
