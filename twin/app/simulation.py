@@ -335,11 +335,12 @@ def _navigators(
     # The world's gravity does not change with depth (sensors/imu.py): the vehicle's INS is
     # given the same model, so that the twin has no gravity-model error of its own.
     ins = InsConfig(free_air_gravity=False)
+    grade = _imu_grade(imu)
     eskf = (
         EskfConfig(gate_probability=nav.gate_probability, ins=ins)
         if nav.tuning == "paper"
         else EskfConfig.for_imu(
-            _imu_grade(imu),
+            grade,
             gate_probability=nav.gate_probability,
             ins=ins,
             datasheet_only=nav.tuning == "datasheet",
@@ -347,9 +348,7 @@ def _navigators(
     )
     if nav.alignment == "gyrocompass":
         # The loader refused an IMU that cannot gyrocompass here (check_navigation).
-        tilt, heading = gyrocompass_sigma(
-            _imu_grade(imu), math.radians(scenario.place.latitude_deg)
-        )
+        tilt, heading = gyrocompass_sigma(grade, math.radians(scenario.place.latitude_deg))
         eskf = dataclasses.replace(eskf, p0_attitude_rad=(tilt, tilt, heading))
     cfg = NavigatorConfig(
         map_aiding=scenario.gravity.matching,

@@ -216,7 +216,7 @@ class GravityMatcher:
             return MatchResult(t, False, reason="gravimeter reading not finite")
         ins = f.ins
         lat, h = ins.lat, ins.h
-        v_e, v_n, v_u = (float(x) for x in ins._v)
+        v_e, v_n, v_u = (float(x) for x in ins.v)
         depth = max(-h, 0.0)
         e, n = self.map_position(lat, ins.lon)
         if not bool(self.stored.grid.contains(e, n)):
@@ -245,7 +245,7 @@ class GravityMatcher:
         ee, nn = buf[:, 1], buf[:, 2]
         ins = f.ins
         lat, h = ins.lat, ins.h
-        v_e, v_n = float(ins._v[0]), float(ins._v[1])
+        v_e, v_n = float(ins.v[0]), float(ins.v[1])
         depth = max(-h, 0.0)
         r_m, r_n = earth.principal_radii(lat)
         m_n, m_e = r_m + h, (r_n + h) * math.cos(lat)
