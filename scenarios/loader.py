@@ -172,6 +172,9 @@ class Range:
 
 
 NON_NEGATIVE = Range(0.0)
+#: A root seed: an int64 (a Parquet column holds it; numpy's SeedSequence takes any int).
+SEED_MAX = 2**63 - 1
+SEED = Range(0, SEED_MAX)
 POSITIVE = Range(0.0, lo_open=True)
 # The poles are excluded: the INS mechanises in local-level ENU, whose East axis and longitude rate
 # (v_E / (R cos φ)) are undefined at ±90° (twin/onboard/ins.py); a grid-frame INS would be needed.
@@ -1287,7 +1290,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
         report.add("name", MSG_BAD_NAME.format(value=_show(name)))
         name = None
     description = top.string("description", default="")
-    seed = top.integer("seed", NON_NEGATIVE, default=0)
+    seed = top.integer("seed", SEED, default=0)
     duration = top.number("duration_s", DURATION_S)
     start = _start_utc(top)
     scene = top.string("scene", choices=SCENES, default="open_sea")

@@ -123,7 +123,7 @@ def test_validate_and_run_reject_alike_in_one_line(
     tmp_path: Path, capsys, edit, field: str, allowed: str
 ) -> None:
     path = _variant(tmp_path, "bad", edit)
-    assert main(["validate", str(path)]) == 1
+    assert main(["validate", str(path)]) == 2  # the same exit code as run
     err_validate = capsys.readouterr().err
     out = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out), "--quiet", "--no-camera"]) == 2

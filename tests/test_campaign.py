@@ -234,7 +234,7 @@ def test_ctrl_c_stops_the_pool_cleanly_and_says_how_to_resume(tmp_path: Path) ->
 def test_cli_validate_reports_in_one_place(tmp_path: Path, capsys) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "bad"\nbase = "tank"\nseeds = -1\n')
-    assert main(["campaign", "validate", str(bad)]) == 1
+    assert main(["campaign", "validate", str(bad)]) == 2  # the exit code of run
     err = capsys.readouterr().err
     assert "seeds: -1" in err and "Traceback" not in err
     assert main(["campaign", "run", str(bad), "--out", str(tmp_path / "o")]) == 2

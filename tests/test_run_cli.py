@@ -114,7 +114,7 @@ def test_cli_scenarios_and_validate(capsys, tmp_path: Path) -> None:
         .read_text()
         .replace("latitude_deg = 37.54", "latitude_deg = 95.0")
     )
-    assert main(["validate", str(bad)]) == 1
+    assert main(["validate", str(bad)]) == 2  # the same exit code as run
     err = capsys.readouterr().err
     assert "place.latitude_deg" in err and "95" in err
     assert main(["run", str(bad), "--out", str(tmp_path / "x")]) == 2

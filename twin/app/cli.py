@@ -43,7 +43,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
             status = 2
         except ScenarioError as exc:
             print(f"{f}: invalid\n{exc}", file=sys.stderr)
-            status = 1
+            status = 2  # the exit code `run` gives the same file
         else:
             print(f"{f}: ok ({sc.name}, {sc.duration_s:g} s, mission {sc.mission.kind})")
     return status
@@ -154,7 +154,7 @@ def _cmd_campaign_validate(args: argparse.Namespace) -> int:
             spec = load_campaign(f)
         except CampaignError as exc:
             print(f"{f}: invalid\n{exc}", file=sys.stderr)
-            status = 1
+            status = 2  # the exit code `campaign run` gives the same spec
         else:
             axes = ", ".join(f"{a.name} ({len(a.values)})" for a in spec.axes) or "no sweep"
             what = f"base {spec.base.name}" if spec.base is not None else f"trial {spec.trial}"
@@ -166,6 +166,7 @@ def _cmd_campaign_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
+    from twin.campaign.folder import FolderError
     from twin.campaign.runner import run_campaign
     from twin.campaign.spec import CampaignError, load_campaign
 
@@ -191,6 +192,9 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
         )
     except KeyboardInterrupt:
         return 130
+    except (FolderError, CampaignError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     total = sum(counts.values())
     print(
         f"campaign {spec.name}: {total} runs this time ("
@@ -215,11 +219,25 @@ def _cmd_campaign_report(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Version(argparse.Action):
+    """``--version``: the package version and the git commit (git is asked only then)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="print the version and git commit")
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # noqa: ANN001
+        from twin.record.provenance import version_line
+
+        print(version_line())
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="auv-twin",
         description="A MuJoCo digital twin of an AUV that navigates by skylight.",
     )
+    p.add_argument("--version", action=_Version)
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="run a sea trial; write a Rerun recording and metrics")

@@ -19,7 +19,9 @@ worker count or the order runs finish in.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import functools
+import os
 import json
 import multiprocessing as mp
 import signal
@@ -32,17 +34,20 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
+from twin.campaign.folder import check_spec, locked, spec_fingerprint, write_record
 from twin.campaign.results import (
     consolidate,
     finished_ids,
     flatten_metrics,
     has_nan,
+    param_value,
     relabel_finished,
     write_row,
     write_timeseries,
 )
-from twin.campaign.spec import CampaignSpec, RunSpec
+from twin.campaign.spec import CampaignError, CampaignSpec, RunSpec
 from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
+from twin.record.provenance import provenance
 
 
 class _WallTimeExceeded(Exception):
@@ -62,9 +67,12 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
         "run_id": run.run_id,
         "index": run.index,
         "seed": run.seed,
-        **{f"param.{k}": v for k, v in run.params},
+        **{f"param.{k}": param_value(v) for k, v in run.params},
+        "spec_fingerprint": job.get("fingerprint", ""),
         "status": "ok",
         "error": "",
+        # Where this row was made (the worker's machine and code): the row file's metadata.
+        "_provenance": provenance(fingerprint=job.get("fingerprint"), seed=run.seed),
     }
     series: dict[str, list] = {}
 
@@ -152,17 +160,41 @@ def _job(spec: CampaignSpec) -> dict[str, Any]:
     }
 
 
-def _worker_init() -> None:
-    # Pay the imports once per worker; let the parent handle Ctrl-C.
+def _worker_init(parent: int | None = None) -> None:
+    # Pay the imports once per worker; let the parent handle Ctrl-C; die with the parent.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with(parent if parent is not None else os.getppid())
     import twin.app.run  # noqa: F401
 
 
-def _store(out: Path, row: dict[str, Any]) -> None:
+def _die_with(parent: int) -> None:
+    """End this worker when the campaign's process dies, even by SIGKILL.
+
+    Linux: the kernel sends SIGKILL when the parent thread exits (``PR_SET_PDEATHSIG``). Also,
+    everywhere: a daemon thread that sees the parent gone (re-parented) within a second.
+    """
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG = 1
+    if os.getppid() != parent:  # the parent died before the line above
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
+
+
+def _store(out: Path, row: dict[str, Any], fp: str) -> None:
     series = row.pop("_series", {})
+    block = row.pop("_provenance", None) or provenance(fingerprint=fp, seed=row.get("seed"))
     if series:
-        write_timeseries(out, row["run_id"], series)
-    write_row(out, row)
+        write_timeseries(out, row["run_id"], series, block)
+    write_row(out, row, block)
 
 
 def run_campaign(
@@ -192,34 +224,47 @@ def run_campaign(
     say = on_message or (lambda m: print(m, file=sys.stderr))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = json.dumps(
-        {
-            "name": spec.name,
-            "source": spec.source,
-            "runs": len(spec.runs),
-            "seeds": list(spec.seeds),
-            "axes": {a.name: list(a.values) for a in spec.axes},
-            "combine": spec.combine,
-        },
-        indent=2,
-        default=str,
-    )
-    layout = out / "campaign.json"
-    same_layout = layout.exists() and layout.read_text().strip() == summary
-    layout.write_text(summary + "\n")
-    done = finished_ids(out)
+    with locked(out):
+        old = check_spec(spec, out)  # another experiment in the folder: FolderError, no run
+        counts = _run_locked(spec, out, old, workers, ray_address, use_ray, progress, say)
+    return counts
+
+
+def _run_locked(
+    spec: CampaignSpec,
+    out: Path,
+    old: dict[str, Any] | None,
+    workers: int,
+    ray_address: str | None,
+    use_ray: bool,
+    progress: bool,
+    say: Callable[[str], None],
+) -> dict[str, int]:
+    if use_ray:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise CampaignError(
+                ["--ray: Ray is not installed; install it with: pip install 'auv-twin[ray]'"],
+                spec.source,
+            ) from None
+    same_layout = old is not None and old.get("fingerprint") == spec_fingerprint(spec)
+    record_ = write_record(spec, out, old)
+    fp = record_["fingerprint"]
+    done = finished_ids(out, say) & {r.run_id for r in spec.runs}
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
         say(f"resuming: {len(spec.runs) - len(todo)} of {len(spec.runs)} runs already on disk")
-        if not same_layout:  # another spec made some of them: give them this one's labels
+        if not same_layout:  # a grown spec made some of them: give them this one's labels
             relabel_finished(out, [r for r in spec.runs if r.run_id in done])
     job = _job(spec)
+    job["fingerprint"] = fp
     counts: dict[str, int] = {}
     bar = _bar(len(todo)) if progress else None
     t0 = time.perf_counter()
 
     def record(row: dict[str, Any]) -> None:
-        _store(out, row)
+        _store(out, row, fp)
         counts[row["status"]] = counts.get(row["status"], 0) + 1
         if bar is not None:
             n_ok = counts.get("ok", 0)
@@ -234,11 +279,10 @@ def run_campaign(
             run_on_ray(
                 todo, job, record, address=ray_address, num_cpus=None if ray_address else workers
             )
-        elif workers <= 1:
-            for r in todo:
-                record(execute_run(r, job))
         else:
-            _run_pool(todo, job, workers, record, say)
+            # One worker is a pool of one: a run that crashes its process (a segfault) is as
+            # isolated as with two, never the campaign's own death.
+            _run_pool(todo, job, max(1, workers), record, say)
     except KeyboardInterrupt:
         n = sum(counts.values()) + len(spec.runs) - len(todo)
         say(
@@ -249,10 +293,28 @@ def run_campaign(
     finally:
         if bar is not None:
             bar.close()
-        consolidate(out)
+        consolidate(out, record_["provenance"], say)
+    _warn_unmatched(spec, out, say)
     if spec.keep_recordings:
         _record_worst(spec, out, job, say)
     return counts
+
+
+def _warn_unmatched(spec: CampaignSpec, out: Path, say: Callable[[str], None]) -> None:
+    """Say which kept-metric patterns matched no metric of any finished run."""
+    import fnmatch
+
+    from twin.campaign.results import load_campaign_results
+
+    df = load_campaign_results(out)
+    if df.empty or not (df["status"] == "ok").any():
+        return
+    keys = [c.removeprefix("metric.") for c in df.columns if c.startswith("metric.")]
+    for pat in spec.metrics:
+        if not any(fnmatch.fnmatchcase(k, pat) for k in keys):
+            tops = sorted({k.split(".")[0] for k in keys})[:12]
+            say(f"warning: metrics pattern {pat!r} matched no metric of any run; the runs' "
+                f"metrics start with {tops}")  # fmt: skip
 
 
 def _record_worst(spec: CampaignSpec, out: Path, job: dict[str, Any], say: Callable) -> None:
@@ -298,7 +360,9 @@ def _run_pool(
     queue = list(todo)
     queue.reverse()  # pop() from the end: the runs go in index order
     while queue:
-        pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        pool = cf.ProcessPoolExecutor(
+            max_workers=workers, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+        )
         futures: dict[cf.Future, RunSpec] = {}
         retry: list[RunSpec] = []
         broken = False
@@ -344,7 +408,9 @@ def _run_alone(r: RunSpec, job: dict, ctx: Any) -> dict[str, Any]:
     A dying worker takes down every run in flight in its pool, and the pool cannot say whose
     run killed it; alone, a run that dies again is the culprit and the others are innocent.
     """
-    pool = cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_worker_init)
+    pool = cf.ProcessPoolExecutor(
+        max_workers=1, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+    )
     try:
         return pool.submit(execute_run, r, job).result()
     except BrokenProcessPool:
@@ -368,7 +434,8 @@ def _failed(r: RunSpec, why: str) -> dict[str, Any]:
         "run_id": r.run_id,
         "index": r.index,
         "seed": r.seed,
-        **{f"param.{k}": v for k, v in r.params},
+        **{f"param.{k}": param_value(v) for k, v in r.params},
+        "spec_fingerprint": "",
         "status": "failed",
         "error": why,
         "wall_time_s": float("nan"),

@@ -53,8 +53,10 @@ import numpy as np
 
 import scenarios
 from scenarios import ScenarioError
+from scenarios.loader import SEED_MAX
 from scenarios.schema import Scenario
 from sensors.polarimeter.rt.table import MODEL_VERSION as LIGHT_MODEL_VERSION
+from twin.campaign.results import param_value
 from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
 
 COMBINE = ("grid", "zip")
@@ -309,14 +311,17 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
     elif (
         isinstance(seeds_raw, list)
         and seeds_raw
-        and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds_raw)
+        and all(
+            isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX
+            for s in seeds_raw
+        )
         and len(set(seeds_raw)) == len(seeds_raw)
     ):
         seeds = tuple(seeds_raw)
     else:
         errs.append(
             f"seeds: {_show(seeds_raw)}; allowed: a count in [1, 1000000] or a list of distinct "
-            "integers >= 0"
+            f"integers in [0, {SEED_MAX}] (2**63 - 1: a Parquet int64)"
         )
     limit = data.get("wall_time_limit_s", 3600.0)
     if not (_number(limit) and limit > 0):
@@ -391,6 +396,9 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         errs.append(f"set: {_show(fixed_raw)}; allowed: a table of dotted path = value")
     else:
         for k, v in _flatten_set(fixed_raw):
+            if k == "seed":
+                errs.append("set.seed: the campaign's `seeds` key gives every run its seed")
+                continue
             fixed.append((k, v))
 
     rng = np.random.default_rng(random_seed)
@@ -415,7 +423,21 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         if bad:
             errs.append(f"sweep[{i}].path: {bad} is not a dotted path (a.b, a.b[0], a.b[*])")
             continue
+        if "seed" in paths:
+            errs.append(
+                f"sweep[{i}].path: \"seed\"; allowed: any scenario field but the seed (the "
+                "campaign's `seeds` key gives every run its seed)"
+            )
+            continue
         values = _axis_values(i, t, rng, errs)
+        labels = [param_value(v) for v in values]
+        dup = sorted({_show(v) for v in labels if labels.count(v) > 1})
+        if dup:
+            errs.append(
+                f"sweep[{i}].values: {', '.join(dup)} given more than once; allowed: distinct "
+                "values (a repeated value would fly the same runs twice)"
+            )
+            continue
         if values:
             axes.append(Axis(tuple(paths), tuple(values)))
     if combine == "zip" and len({len(a.values) for a in axes}) > 1:
@@ -431,6 +453,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
     else:
         assert base is not None
         runs = _resolve(base, axes, combine, seeds, fixed, source)
+    _check_distinct(runs, source)
     return CampaignSpec(
         name=name,
         description=description,
@@ -449,6 +472,21 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         runs=runs,
         trial=str(trial_name) if study is not None else SCENARIO,
     )
+
+
+def _check_distinct(runs: Sequence[RunSpec], source: str) -> None:
+    """Two runs with one id would be flown once and counted twice: an error, naming them."""
+    seen: dict[str, RunSpec] = {}
+    for r in runs:
+        first = seen.setdefault(r.run_id, r)
+        if first is not r:
+            a = ", ".join(f"{k} = {_show(param_value(v))}" for k, v in first.params) or "base"
+            b = ", ".join(f"{k} = {_show(param_value(v))}" for k, v in r.params) or "base"
+            raise CampaignError(
+                [f"runs {first.index} ({a}) and {r.index} ({b}), seed {r.seed}, resolve to the "
+                 "same scenario; allowed: sweep values that make different runs"],
+                source,
+            )  # fmt: skip
 
 
 def _flatten_set(t: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:

@@ -133,6 +133,34 @@ def route_points_m(scenario: Scenario) -> list[tuple[str, tuple[float, float]]]:
     return pts
 
 
+#: The most prism evaluations (prisms × map nodes) a synthetic seafloor may cost: about a minute
+#: on one 2-core machine (measured 2026-12-04: 9.6e7 evaluations, the 40 km default, in 5 s).
+MAX_PRISM_EVALUATIONS = 1.2e9
+
+
+def _seafloor_size_problem(g: Gravity) -> str | None:
+    """A seafloor too coarse for two nodes a side, or too fine to build in about a minute."""
+    sx, sy = (1000.0 * v for v in g.size_km)
+    if g.spacing_m > min(sx, sy) / 2:
+        return (
+            f"gravity.spacing_m: {g.spacing_m:g} leaves fewer than 3 nodes a side of the "
+            f"{sx / 1e3:g} × {sy / 1e3:g} km map; allowed: at most {min(sx, sy) / 2:g} m"
+        )
+    pad = _spec(g).pad_m
+    nodes = (sx / g.spacing_m + 1) * (sy / g.spacing_m + 1)
+    prisms = ((sx + 2 * pad) / g.spacing_m + 1) * ((sy + 2 * pad) / g.spacing_m + 1)
+    if nodes * prisms <= MAX_PRISM_EVALUATIONS:
+        return None
+    d_min = ((sx + 2 * pad) * (sy + 2 * pad) * sx * sy / MAX_PRISM_EVALUATIONS) ** 0.25
+    return (
+        f"gravity.spacing_m: {g.spacing_m:g} on a {sx / 1e3:g} × {sy / 1e3:g} km seafloor is "
+        f"{nodes:.3g} nodes over {prisms:.3g} prisms ({nodes * prisms:.2g} prism evaluations, "
+        f"about {nodes * prisms / 2e7 / 60:.0f} min to build on 2 cores); allowed: at most "
+        f"{MAX_PRISM_EVALUATIONS:.2g} evaluations: spacing_m >= {10 * math.ceil(d_min / 10):g} "
+        "for this size, or a smaller size_km"
+    )
+
+
 def check_gravity(scenario: Scenario) -> list[str]:
     """Every problem a run would meet with the scenario's gravity, as ``field: message`` lines."""
     g = scenario.gravity
@@ -150,6 +178,10 @@ def check_gravity(scenario: Scenario) -> list[str]:
         )
     if g.map == "none":
         return problems
+    if g.map == "seafloor":
+        size_problem = _seafloor_size_problem(g)
+        if size_problem:
+            return [*problems, size_problem]
     extent = field_extent_m(g)
     spacing = g.spacing_m if g.map != "wang2023" else 1000.0
     if extent is None:
