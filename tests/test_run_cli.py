@@ -96,6 +96,10 @@ def test_same_seed_same_outputs_different_seed_different_noise(tmp_path: Path) -
     np.testing.assert_array_equal(imu[0], imu[1])
     assert not np.array_equal(imu[0], imu[2])
     drop = ("wall_time_s", "real_time_factor")
+    for m in (m1, m2):  # the same inputs, code and machine; only the moment differs
+        assert m["provenance"].pop("created_utc")
+    assert m1["provenance"]["fingerprint"] == m3["provenance"]["fingerprint"]
+    assert (m1["provenance"]["seed"], m3["provenance"]["seed"]) == (0, 1)
     assert {k: v for k, v in m1.items() if k not in drop} == {
         k: v for k, v in m2.items() if k not in drop
     }

@@ -73,6 +73,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             seed=args.seed,
             progress=not args.quiet,
             camera=False if args.no_camera else None,
+            timeseries=args.timeseries,
         )
     except KeyboardInterrupt:
         print(f"\ninterrupted: partial recording and metrics in {out}", file=sys.stderr)
@@ -83,6 +84,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(format_summary(metrics))
     print(f"recording: {out / 'recording.rrd'}  (open with: rerun {out / 'recording.rrd'})")
     print(f"metrics:   {out / 'metrics.json'}")
+    if args.timeseries:
+        print(f"series:    {out / 'timeseries'}/*.parquet")
     return 0
 
 
@@ -225,7 +228,7 @@ class _Version(argparse.Action):
     def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
         super().__init__(option_strings, dest, nargs=0, help="print the version and git commit")
 
-    def __call__(self, parser, namespace, values, option_string=None) -> None:  # noqa: ANN001
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
         from twin.record.provenance import version_line
 
         print(version_line())
@@ -248,6 +251,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, help="root seed (default: the scenario's)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.add_argument("--no-camera", action="store_true", help="do not render the chase camera")
+    r.add_argument(
+        "--timeseries",
+        action="store_true",
+        help="also write the time series (truth, readings, filters, compass fixes) as Parquet "
+        "in OUT/timeseries/",
+    )
     r.set_defaults(func=_cmd_run)
 
     rd = sub.add_parser(

@@ -33,8 +33,10 @@ from scenarios.schema import Scenario
 from twin.app.simulation import Simulation, build_simulation
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
+from twin.record.provenance import fingerprint, provenance
 from twin.record.recorder import Recorder, default_blueprint
-from twin.scoring.mission import format_summary, summarize
+from twin.record.timeseries import TimeSeriesWriter
+from twin.scoring.mission import format_summary, fusion_warnings, summarize
 from twin.scoring.observer import RunScorer
 
 __all__ = ["format_summary", "prepare_output", "run_scenario"]
@@ -98,6 +100,7 @@ def run_scenario(
     on_message: Callable[[str], None] | None = None,
     record: bool = True,
     on_scored: Callable[[RunScorer], None] | None = None,
+    timeseries: bool = False,
 ) -> dict[str, Any]:
     """Run one sea trial and write its recording and metrics.
 
@@ -110,6 +113,8 @@ def run_scenario(
         on_message: Called with one-line notices (e.g. "no GL context"); default: stderr.
         record: Write the Rerun recording (False: metrics only, as campaigns run by default).
         on_scored: Called with the run's scorer when the run ends (per-run time series).
+        timeseries: Also write the run's time series as Parquet in ``out_dir/timeseries/``
+            (:mod:`twin.record.timeseries`), also when the run stops early.
 
     Returns:
         The metrics dict (also written to ``out_dir/metrics.json``).
@@ -126,6 +131,8 @@ def run_scenario(
         "status": "running",
         "recording": "recording.rrd" if record else None,
         "versions": _versions(),
+        # Where these numbers came from: code, packages, light model, inputs, seed, machine, date.
+        "provenance": provenance(fingerprint=fingerprint(scenario.to_dict()), seed=seed_used),
         # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
         "scenario_config": scenario.to_dict(),
     }
@@ -135,6 +142,7 @@ def run_scenario(
     # metrics.json with the reason and closes whatever was opened.
     rec: Recorder | None = None
     cam: ChaseCamera | None = None
+    series: TimeSeriesWriter | None = None
     scorer = RunScorer(world)
     notes: list[str] = []
     status_text = "starting"
@@ -152,6 +160,7 @@ def run_scenario(
                     tuple(world.navigators), gravity=world.stored_map is not None
                 ),
             )
+            rec.log_properties("provenance", base["provenance"])
         notes = _notes(scenario)
         for note in notes:
             say(f"note: {note}")
@@ -169,8 +178,13 @@ def run_scenario(
                 )
                 cam = None
         recorder = RunRecorder(rec, world, scorer, cam) if rec is not None else None
-        # The recorder logs what the scorer just computed: the scorer goes first.
-        world.observers[:] = [scorer] + ([recorder] if recorder is not None else [])
+        series = TimeSeriesWriter(world, scorer, scenario.start_utc) if timeseries else None
+        # The recorder and the series read what the scorer just computed: the scorer goes first.
+        world.observers[:] = (
+            [scorer]
+            + ([recorder] if recorder is not None else [])
+            + ([series] if series is not None else [])
+        )
         status_text = "running"
         bar = _progress(scenario.duration_s, progress)
         if rec is not None:
@@ -209,6 +223,12 @@ def run_scenario(
             **({"notes": notes} if notes else {}),
             **summarize(world, scorer, wall),
         }
+        warnings = fusion_warnings(metrics, scenario.navigation)
+        if warnings:
+            metrics["warnings"] = warnings
+        if series is not None:
+            files = series.write(out, base["provenance"])
+            metrics["timeseries"] = [str(p.relative_to(out)) for p in files]
         _write_json_atomic(metrics_path, metrics)
         if on_scored is not None:
             on_scored(scorer)

@@ -57,7 +57,7 @@ def flatten_metrics(metrics: Mapping[str, Any], patterns: Iterable[str] = ("*",)
             for i, x in enumerate(node):
                 out[f"{key}[{i}]"] = float(x)
 
-    skip = {"scenario_config", "versions", "sensors"}
+    skip = {"scenario_config", "versions", "sensors", "provenance"}
     walk({k: v for k, v in metrics.items() if k not in skip}, "")
     pats = list(patterns)
     return {k: v for k, v in out.items() if any(fnmatch.fnmatchcase(k, p) for p in pats)}

@@ -21,9 +21,8 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import functools
-import os
-import json
 import multiprocessing as mp
+import os
 import signal
 import sys
 import tempfile

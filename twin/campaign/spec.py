@@ -312,8 +312,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         isinstance(seeds_raw, list)
         and seeds_raw
         and all(
-            isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX
-            for s in seeds_raw
+            isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX for s in seeds_raw
         )
         and len(set(seeds_raw)) == len(seeds_raw)
     ):
@@ -425,7 +424,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
             continue
         if "seed" in paths:
             errs.append(
-                f"sweep[{i}].path: \"seed\"; allowed: any scenario field but the seed (the "
+                f'sweep[{i}].path: "seed"; allowed: any scenario field but the seed (the '
                 "campaign's `seeds` key gives every run its seed)"
             )
             continue

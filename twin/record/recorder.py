@@ -50,9 +50,10 @@ import datetime as dt
 import math
 import subprocess
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 import numpy as np
 import rerun as rr
@@ -228,6 +229,26 @@ def salvage(src: Path | str, dst: Path | str) -> Path:
     return dst
 
 
+def compact(path: Path | str) -> Path:
+    """Rewrite a closed recording in compact chunks (``rerun rrd optimize``), in place.
+
+    While a run flies, the recorder flushes every few simulated seconds so that a killed run
+    leaves a readable file; that leaves ~50 times more chunks than the 2 MiB target (``rerun rrd
+    stats``: 1964 chunks against a lower bound of 40 for the default trial). Compacting the
+    closed file brings it to the bound (measured: 38 of 38) in ~0.3 s. The original is kept if
+    the CLI fails.
+    """
+    path = Path(path)
+    tmp = path.with_name(path.name + ".compact.tmp")
+    cmd = [sys.executable, "-m", "rerun_cli", "rrd", "optimize", str(path), "-o", str(tmp)]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=600)
+        tmp.replace(path)
+    except (OSError, subprocess.SubprocessError):
+        tmp.unlink(missing_ok=True)
+    return path
+
+
 def _default_names(width: int, label: str) -> list[str]:
     if width == 1:
         return [label]
@@ -294,6 +315,7 @@ class Recorder:
         variants: Sequence[str] = (),
         path_period_s: float = 0.5,
         jpeg_quality: int | None = 80,
+        compact: bool = True,
     ) -> None:
         if start_utc.tzinfo is None or start_utc.utcoffset() is None:
             raise ValueError(f"start_utc = {start_utc!r}: must be timezone-aware (UTC)")
@@ -308,6 +330,7 @@ class Recorder:
         self._flush_every_s = float(flush_every_s)
         self._path_period_s = float(path_period_s)
         self._jpeg_quality = jpeg_quality
+        self._compact = compact
 
         # The default batcher flushes every 200 ms of *wall* time, so chunk boundaries (and so
         # store.summary()) would depend on machine speed. Flushing only on our sim-time schedule
@@ -354,6 +377,22 @@ class Recorder:
     def closed(self) -> bool:
         """Whether :meth:`close` has run."""
         return self._closed
+
+    def log_properties(self, name: str, values: Mapping[str, Any]) -> None:
+        """Recording properties (``/__properties/<name>``): a nested mapping, flattened to
+        dotted keys, every value as text (None as an empty string).
+        """
+        flat: dict[str, str] = {}
+
+        def walk(node: Any, key: str) -> None:
+            if isinstance(node, Mapping):
+                for k, v in node.items():
+                    walk(v, f"{key}.{k}" if key else str(k))
+            else:
+                flat[key] = "" if node is None else str(node)
+
+        walk(values, "")
+        self._rec.send_property(name, rr.AnyValues(**flat))
 
     # ------------------------------------------------------------------ static scene
 
@@ -695,6 +734,8 @@ class Recorder:
             self._closed = True
             # disconnect() is what writes the footer; flush() alone leaves a footer-less file.
             self._rec.disconnect()
+        if self._compact:
+            compact(self.path)
 
     # ------------------------------------------------------------------ internals
 

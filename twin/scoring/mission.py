@@ -146,6 +146,52 @@ def summarize(world: Simulation, scorer: RunScorer, wall_s: float) -> dict[str, 
     }
 
 
+#: A compass variant that fuses fewer of its fixes than this is flagged: it is (nearly) its INS.
+FUSION_WARN_FRACTION = 0.1
+
+
+def fusion_warnings(metrics: dict[str, Any], nav: Any) -> list[str]:
+    """A line for each compass variant that fused none or few of its fixes, naming the cause.
+
+    Args:
+        metrics: The run's metrics (``navigation.variants``).
+        nav: The scenario's ``[navigation]`` table (gate and measurement kind, for the cause).
+    """
+    out = []
+    for name, v in (metrics.get("navigation") or {}).get("variants", {}).items():
+        comp = v.get("compass")
+        if not comp or comp["frames"] == 0:
+            continue
+        fixes, fused = comp["fixes"], comp["sun_updates_applied"]
+        if fixes == 0:
+            out.append(
+                f"{name}: the compass gave no fix in {comp['frames']} frames (night, or the "
+                f"method found no sun): {name} ran as an INS-only filter"
+            )
+            continue
+        if fused >= FUSION_WARN_FRACTION * fixes:
+            continue
+        rejected = comp["sun_updates_rejected"]
+        cause = (
+            f"the NIS gate (gate_probability {nav.gate_probability:g}) rejected {rejected} "
+            f"{nav.sun_measurement!r} sun measurements"
+            if rejected
+            else "the filter skipped them"
+        )
+        hint = (
+            "; sun_measurement = 'vector' fuses the compass's elevation, whose bias under water "
+            "fails the gate: try sun_measurement = 'azimuth' or gate_probability = 1.0"
+            if rejected and nav.sun_measurement == "vector"
+            else ""
+        )
+        out.append(
+            f"{name}: fused {fused} of {fixes} compass fixes ({100 * fused / fixes:.0f} %, under "
+            f"{100 * FUSION_WARN_FRACTION:.0f} %): {cause}{hint}; its estimate is close to the "
+            "INS alone"
+        )
+    return out
+
+
 def format_summary(metrics: dict[str, Any]) -> str:
     """A human-readable summary of a metrics dict (what the CLI prints)."""
     m = metrics
@@ -194,6 +240,8 @@ def format_summary(metrics: dict[str, Any]) -> str:
                 f"{v['pitch_rmse_deg']:.2f} deg, drift {v['position_drift_final_m']:.1f} m, "
                 f"NEES {v['nees_attitude_mean']:.2f}{extra}"
             )
+    for w in m.get("warnings", []):
+        lines.append(f"  WARNING: {w}")
     if "error" in m:
         lines.append(f"  error: {m['error']}")
     return "\n".join(lines)

@@ -110,6 +110,10 @@ class VariantScore:
                     "no_fix": ups["no_fix"],
                     "sun_updates_applied": ups["sun"],
                     "sun_updates_rejected": ups["sun_rejected"],
+                    # Fused / fixes: a variant that fuses (almost) none equals INS (a warning).
+                    "fused_fraction": _r(ups["sun"] / (ups["frames"] - ups["no_fix"]))
+                    if ups["frames"] > ups["no_fix"]
+                    else 0.0,
                 }
                 if nav.method is not None
                 else None
