@@ -379,8 +379,9 @@ class Recorder:
         return self._closed
 
     def log_properties(self, name: str, values: Mapping[str, Any]) -> None:
-        """Recording properties (``/__properties/<name>``): a nested mapping, flattened to
-        dotted keys, every value as text (None as an empty string).
+        """Recording properties (``/__properties/<name>``) from a nested mapping.
+
+        Keys are flattened to dotted names; every value is logged as text (None as "").
         """
         flat: dict[str, str] = {}
 
