@@ -9,9 +9,10 @@ from pathlib import Path
 
 import scenarios
 from scenarios import ScenarioError
+from twin.app import render
 
 
-def _writable_out(out: str | Path) -> Path | None:
+def writable_out(out: str | Path) -> Path | None:
     """``--out`` created and proved writable before anything runs; None (said in a line) if not."""
     from twin.app.run import prepare_output
 
@@ -64,7 +65,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"error: --seed {args.seed}: must be an integer >= 0", file=sys.stderr)
         return 2
     out = Path(args.out) if args.out else Path("runs") / sc.name
-    if _writable_out(out) is None:  # before anything is flown
+    if writable_out(out) is None:  # before anything is flown
         return 2
     try:
         metrics = run_scenario(
@@ -86,65 +87,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"metrics:   {out / 'metrics.json'}")
     if args.timeseries:
         print(f"series:    {out / 'timeseries'}/*.parquet")
-    return 0
-
-
-def _cmd_render(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from twin.app.simulation import build_simulation
-    from twin.onboard.polarization import stokes_from_mosaic
-    from twin.record import images
-    from twin.world.assembly import polarimeter_sensor
-
-    try:
-        sc = scenarios.load(args.scenario)
-    except (FileNotFoundError, ScenarioError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    if not (0.0 <= args.at <= sc.duration_s):
-        print(
-            f"error: --at {args.at}: allowed [0, {sc.duration_s:g}] s (the scenario's duration)",
-            file=sys.stderr,
-        )
-        return 2
-    if args.seed is not None and args.seed < 0:
-        print(f"error: --seed {args.seed}: must be an integer >= 0", file=sys.stderr)
-        return 2
-    out = Path(args.out) if args.out else Path("runs") / f"{sc.name}_t{args.at:g}"
-    try:
-        cam = polarimeter_sensor(sc, None if sc.sensors.polarimeter else args.preset)
-    except (KeyError, ValueError) as exc:
-        print(f"error: --preset {args.preset}: {exc}", file=sys.stderr)
-        return 2
-    if _writable_out(out) is None:  # before anything is flown
-        return 2
-    world = build_simulation(sc, args.seed)
-    world.fly(args.at)
-    rng = np.random.default_rng(np.random.SeedSequence(world.seed).spawn(4)[3])
-    cam.reset(world.plant, rng)
-    values = cam.sample(world.plant, rng)
-    ss = cam.pspec.sensor_spec()
-    pol = stokes_from_mosaic(
-        values["raw"],
-        ss.layout_deg,
-        black_level_dn=ss.black_level_dn,
-        saturation_dn=ss.saturation_dn,
-    )
-    stem = f"{sc.name}_t{args.at:g}"
-    try:
-        written = images.write_pngs(pol, out, stem)
-    except OSError as exc:
-        print(f"error: writing the images to {out}: {exc.strerror or exc}", file=sys.stderr)
-        return 1
-    tr = world.plant.truth()
-    print(
-        f"{sc.name} at t = {args.at:g} s ({world.plant.utc:%Y-%m-%d %H:%M:%S} UTC): depth "
-        f"{tr.depth_m:.2f} m, heading {tr.heading_deg:.1f} deg, roll "
-        f"{np.degrees(tr.roll_rad):.1f}, pitch {np.degrees(tr.pitch_rad):.1f} deg"
-    )
-    for p in written:
-        print(f"  wrote {p}")
     return 0
 
 
@@ -181,7 +123,7 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
     except CampaignError as exc:
         print(f"error: campaign {args.spec} is invalid\n{exc}", file=sys.stderr)
         return 2
-    out = _writable_out(args.out)
+    out = writable_out(args.out)
     if out is None:
         return 2
     try:
@@ -214,11 +156,14 @@ def _cmd_campaign_report(args: argparse.Namespace) -> int:
         print(f"error: {args.dir}: no such campaign folder", file=sys.stderr)
         return 2
     try:
-        path = write_report(args.dir, metric=args.metric)
+        path = write_report(
+            args.dir, metric=args.metric, say=lambda m: print(f"note: {m}", file=sys.stderr)
+        )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"report: {path}")
+    print(f"        {path.with_suffix('.html')}  (one page, figures embedded)")
     return 0
 
 
@@ -259,19 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.set_defaults(func=_cmd_run)
 
-    rd = sub.add_parser(
-        "render", help="fly a scenario to an instant and write the polarimeter's images (PNG)"
-    )
-    rd.add_argument("scenario", help="a shipped scenario name or a .toml file")
-    rd.add_argument("--at", type=float, default=0.0, help="sim time in seconds (default 0)")
-    rd.add_argument("--out", help="output folder (default: runs/<name>_t<at>)")
-    rd.add_argument("--seed", type=int, help="root seed (default: the scenario's)")
-    rd.add_argument(
-        "--preset",
-        default="phx050s_p",
-        help="polarimeter preset when the scenario has none (default: phx050s_p)",
-    )
-    rd.set_defaults(func=_cmd_render)
+    render.add_parser(sub)
 
     s = sub.add_parser("scenarios", help="list the shipped scenarios")
     s.set_defaults(func=_cmd_scenarios)

@@ -87,7 +87,22 @@ def _progress(total_s: float, enabled: bool):
         return None
     from tqdm import tqdm
 
-    return tqdm(total=round(total_s), unit="sim s", desc="sea trial", file=sys.stderr, leave=True)
+    return tqdm(
+        total=round(total_s),
+        unit="sim s",
+        desc="sea trial",
+        file=sys.stderr,
+        leave=True,
+        mininterval=progress_interval_s(),
+    )
+
+
+def progress_interval_s() -> float:
+    """How often a progress bar redraws (s).
+
+    0.1 s on a terminal; into a file or a CI log at most every 5 s, since each redraw stays there.
+    """
+    return 0.1 if sys.stderr.isatty() else 5.0
 
 
 def run_scenario(

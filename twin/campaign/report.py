@@ -1,275 +1,178 @@
-"""The campaign report: statistics with bootstrap confidence intervals, paired comparisons, plots.
+"""The campaign report: a supplement a paper can cite, generated from the rows, never edited.
 
-``auv-twin campaign report DIR`` reads the campaign's rows (:mod:`twin.campaign.results`) and
-writes ``DIR/report/report.md`` with PNG figures beside it:
+``auv-twin campaign report DIR [--metric M]`` reads the rows of the folder's experiment
+(:mod:`twin.campaign.results`) and writes, in ``DIR/report/<metric>/`` (each metric its own
+folder, rewritten whole, so metrics never mix):
 
-* per group (the swept values × the filter variant): n, mean, RMSE, median and 95th percentile of
-  the chosen per-run metric (default: each variant's heading RMSE), each with a 95 % bootstrap
-  confidence interval (``scipy.stats.bootstrap``, percentile method, seeded: the same rows give
-  the same report);
-* paired comparisons between variants on the same runs (same seed, same frames): the mean paired
-  difference with its bootstrap CI, and how often the first is better;
-* figures: the metric against each swept parameter with CI bands per variant, the CDF per variant,
-  box plots per variant.
+* ``report.md`` and ``report.html`` (one self-contained page, figures embedded: a reviewer opens
+  it with a double click) with the same content:
 
-Every number in the report is computed from the rows on disk; nothing is typed in.
+  - a header: the provenance of the code, packages, light model and machine that made the runs
+    and the report (:mod:`twin.record.provenance`), the base scenario, the ``[set]`` changes, the
+    sweep, the seeds, the interval method and its level;
+  - warnings: small groups, compass variants that fused too few fixes, runs that did not finish,
+    row files that were ignored or set aside;
+  - per group (the swept values × the variant): n, mean, RMSE, median, 95th percentile with their
+    intervals (:mod:`twin.campaign.stats`), and the largest value;
+  - paired comparisons between variants on the same runs;
+  - figures with titles, captions, labelled axes and units (:mod:`twin.campaign.figures`);
+
+* ``groups.csv`` and ``paired.csv``: the tables' numbers at full precision;
+* every figure as PNG (200 dpi) and SVG.
+
+Labels, units and definitions come from :mod:`twin.campaign.labels`; numbers are shown to three
+significant digits, an interval to its value's decimals.
 """
 
 from __future__ import annotations
 
-import itertools
+import base64
+import html
+import json
 import math
-from collections.abc import Callable, Sequence
+import shutil
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-import numpy as np
 import pandas as pd
-from scipy import stats
 
-# Where a run's per-variant metrics live: a flight's filter variants, a study trial's methods.
-_VARIANT_PREFIXES = ("metric.navigation.variants.", "metric.methods.")
-_CONFIDENCE = 0.95
-_RESAMPLES = 2000
+from twin.campaign.figures import Figure, FigureMaker
+from twin.campaign.labels import describe
+from twin.campaign.stats import (
+    BOOTSTRAP,
+    CONFIDENCE,
+    RESAMPLES,
+    SMALL_N,
+    STATISTICS,
+    VARIANT_PREFIXES,
+    bootstrap_ci,
+    fmt,
+    fmt_ci,
+    group_statistics,
+    long_table,
+    paired_comparisons,
+    variant_columns,
+    variants_of,
+)
+from twin.record.provenance import describe as describe_provenance
+from twin.record.provenance import provenance, read_parquet_provenance
 
+__all__ = [
+    "bootstrap_ci",
+    "group_statistics",
+    "long_table",
+    "paired_comparisons",
+    "variants_of",
+    "write_report",
+]
 
-def _rmse(x: np.ndarray, axis: int = -1) -> np.ndarray:
-    return np.sqrt(np.mean(np.square(x), axis=axis))
-
-
-def _p95(x: np.ndarray, axis: int = -1) -> np.ndarray:
-    return np.percentile(x, 95, axis=axis)
-
-
-STATISTICS: dict[str, Callable[..., np.ndarray]] = {
-    "mean": np.mean,
-    "rmse": _rmse,
-    "median": np.median,
-    "p95": _p95,
-}
-
-
-def bootstrap_ci(x: Sequence[float], statistic: Callable, seed: int = 0) -> tuple[float, float]:
-    """95 % percentile-bootstrap interval of ``statistic`` over ``x`` (NaN for n < 2)."""
-    a = np.asarray(x, dtype=np.float64)
-    a = a[np.isfinite(a)]
-    if a.size < 2 or np.all(a == a[0]):
-        v = float(statistic(a)) if a.size else math.nan
-        return (v, v) if a.size else (math.nan, math.nan)
-    res = stats.bootstrap(
-        (a,),
-        statistic,
-        confidence_level=_CONFIDENCE,
-        n_resamples=_RESAMPLES,
-        method="percentile",
-        vectorized=True,
-        rng=np.random.default_rng(seed),
-    )
-    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+_STAT_LABELS = {"mean": "mean", "rmse": "RMSE", "median": "median", "p95": "95th percentile"}
 
 
-def variants_of(df: pd.DataFrame, metric: str) -> list[str]:
-    """Filter variants with a ``metric`` column (e.g. ``heading_rmse_deg``)."""
-    return sorted(_variant_columns(df, metric))
+# ---- the document: blocks rendered as Markdown and as HTML ------------------------------------
+@dataclass
+class _Doc:
+    blocks: list[tuple[str, Any]] = field(default_factory=list)
+
+    def h(self, level: int, text: str) -> None:
+        self.blocks.append(("h", (level, text)))
+
+    def p(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def items(self, lines: list[str]) -> None:
+        self.blocks.append(("ul", lines))
+
+    def table(self, header: list[str], rows: list[list[str]]) -> None:
+        self.blocks.append(("table", (header, rows)))
+
+    def figure(self, fig: Figure, number: int) -> None:
+        self.blocks.append(("figure", (fig, number)))
+
+    def markdown(self) -> str:
+        out: list[str] = []
+        for kind, x in self.blocks:
+            if kind == "h":
+                out += ["#" * x[0] + " " + x[1], ""]
+            elif kind == "p":
+                out += [x, ""]
+            elif kind == "ul":
+                out += [f"- {line}" for line in x] + [""]
+            elif kind == "table":
+                header, rows = x
+                out.append("| " + " | ".join(header) + " |")
+                out.append("|" + "---|" * len(header))
+                out += ["| " + " | ".join(r) + " |" for r in rows]
+                out.append("")
+            else:
+                fig, n = x
+                out += [
+                    f"![{fig.title}]({fig.png.name})",
+                    "",
+                    f"*Figure {n}. {fig.title}.* {fig.caption} "
+                    f"Vector version: [{fig.svg.name}]({fig.svg.name}).",
+                    "",
+                ]
+        return "\n".join(out)
+
+    def html(self, title: str) -> str:
+        e = html.escape
+        body: list[str] = []
+        for kind, x in self.blocks:
+            if kind == "h":
+                body.append(f"<h{x[0]}>{_inline(x[1])}</h{x[0]}>")
+            elif kind == "p":
+                body.append(f"<p>{_inline(x)}</p>")
+            elif kind == "ul":
+                body.append("<ul>" + "".join(f"<li>{_inline(li)}</li>" for li in x) + "</ul>")
+            elif kind == "table":
+                header, rows = x
+                head = "".join(f"<th>{_inline(h)}</th>" for h in header)
+                trs = "".join(
+                    "<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rows
+                )
+                body.append(f"<table><thead><tr>{head}</tr></thead><tbody>{trs}</tbody></table>")
+            else:
+                fig, n = x
+                data = base64.b64encode(fig.png.read_bytes()).decode()
+                body.append(
+                    f'<figure><img src="data:image/png;base64,{data}" alt="{e(fig.title)}">'
+                    f"<figcaption><b>Figure {n}. {e(fig.title)}.</b> {_inline(fig.caption)} "
+                    f'<a href="{e(fig.svg.name)}">Vector version (SVG)</a>.</figcaption></figure>'
+                )
+        return (
+            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f"<title>{e(title)}</title><style>{_CSS}</style></head><body>\n"
+            + "\n".join(body)
+            + "\n</body></html>\n"
+        )
 
 
-def _variant_columns(df: pd.DataFrame, metric: str) -> dict[str, str]:
-    """{variant: column} of ``metric`` under any of the variant prefixes."""
-    out = {}
-    for c in df.columns:
-        for prefix in _VARIANT_PREFIXES:
-            if c.startswith(prefix) and c.endswith("." + metric):
-                out[c[len(prefix) : -len(metric) - 1]] = c
-    return out
+_CSS = (
+    "body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;"
+    "line-height:1.45;color:#222}table{border-collapse:collapse;margin:1em 0;font-size:.9em}"
+    "th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}th{background:#f3f3f3}"
+    "td:first-child,th:first-child{text-align:left}figure{margin:1.5em 0}"
+    "img{max-width:100%;height:auto;border:1px solid #eee}figcaption{font-size:.9em;color:#444}"
+    "code{background:#f5f5f5;padding:0 .2em}"
+)
 
 
-def long_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
-    """One row per (run, variant): run_id, seed, the params, variant, value."""
-    params = [c for c in df.columns if c.startswith("param.")]
-    rows = []
-    for v, col in sorted(_variant_columns(df, metric).items()):
-        part = df[["run_id", "seed", *params]].copy()
-        part["variant"] = v
-        part["value"] = df[col].astype(float)
-        rows.append(part)
-    if not rows:
-        return pd.DataFrame(columns=["run_id", "seed", *params, "variant", "value"])
-    return pd.concat(rows, ignore_index=True)
+def _inline(text: str) -> str:
+    """Markdown's inline code and bold as HTML; everything else escaped."""
+    parts = html.escape(text).split("`")
+    out = "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
+    bold = out.split("**")
+    return "".join(f"<b>{p}</b>" if i % 2 else p for i, p in enumerate(bold))
 
 
-def group_statistics(long: pd.DataFrame) -> pd.DataFrame:
-    """Per (params, variant): n and every statistic with its CI."""
-    params = [c for c in long.columns if c.startswith("param.")]
-    keys = [*params, "variant"]
-    out = []
-    for key, g in long.groupby(keys, sort=True, dropna=False):
-        key = key if isinstance(key, tuple) else (key,)
-        x = g["value"].to_numpy(dtype=float)
-        x = x[np.isfinite(x)]
-        row = dict(zip(keys, key, strict=True))
-        row["n"] = int(x.size)
-        for i, (name, f) in enumerate(STATISTICS.items()):
-            row[name] = float(f(x)) if x.size else math.nan
-            row[f"{name}_lo"], row[f"{name}_hi"] = bootstrap_ci(x, f, seed=i)
-        # The largest value, as the MOI paper reports it; no interval (a bootstrap of a maximum
-        # never exceeds the sample's own and says nothing of the population's).
-        row["max"] = float(x.max()) if x.size else math.nan
-        out.append(row)
-    return pd.DataFrame(out)
-
-
-def paired_comparisons(long: pd.DataFrame) -> pd.DataFrame:
-    """Per (params, variant pair): the mean paired difference a − b over the same runs, its CI."""
-    params = [c for c in long.columns if c.startswith("param.")]
-    wide = long.pivot_table(index=["run_id", *params], columns="variant", values="value")
-    wide = wide.reset_index()
-    variants = [c for c in wide.columns if c not in ("run_id", *params)]
-    out = []
-    groups = wide.groupby(params, sort=True, dropna=False) if params else [((), wide)]
-    for key, g in groups:
-        key = key if isinstance(key, tuple) else (key,)
-        for a, b in itertools.combinations(sorted(variants), 2):
-            d = (g[a] - g[b]).to_numpy(dtype=float)
-            d = d[np.isfinite(d)]
-            lo, hi = bootstrap_ci(d, np.mean)
-            out.append(
-                {
-                    **dict(zip(params, key, strict=True)),
-                    "a": a,
-                    "b": b,
-                    "n_pairs": int(d.size),
-                    "mean_diff": float(np.mean(d)) if d.size else math.nan,
-                    "diff_lo": lo,
-                    "diff_hi": hi,
-                    "a_better_fraction": float(np.mean(d < 0)) if d.size else math.nan,
-                }
-            )
-    return pd.DataFrame(out)
-
-
-# ---- figures --------------------------------------------------------------------------------
-def _numeric(col: pd.Series) -> bool:
-    return all(isinstance(x, int | float | np.number) and not isinstance(x, bool) for x in col)
-
-
-def _mean_ci_by(g: pd.DataFrame, by: str) -> tuple[list, list, list, list]:
-    """Per value of ``by``: the mean of ``value`` and its bootstrap CI."""
-    xs, means, los, his = [], [], [], []
-    # Numbers in order; names (a water type) in the spec's order, which is the rows' order.
-    for x, gg in g.groupby(by, sort=_numeric(g[by])):
-        vals = gg["value"].to_numpy(dtype=float)
-        xs.append(x)
-        means.append(float(np.nanmean(vals)))
-        lo, hi = bootstrap_ci(vals, np.mean)
-        los.append(lo)
-        his.append(hi)
-    return xs, means, los, his
-
-
-def _figures(long: pd.DataFrame, metric: str, folder: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    written: list[Path] = []
-    stem = metric.replace(".", "_")  # file names without dots but the extension's
-
-    def save(fig, name: str) -> None:
-        fig.tight_layout()
-        fig.savefig(folder / name)
-        plt.close(fig)
-        written.append(folder / name)
-
-    params = [c for c in long.columns if c.startswith("param.")]
-    variants = sorted(long["variant"].unique())
-    # Values over decades (the MOI study: 1e-6° for PATZ without noise, 1° with): a log axis.
-    pos_vals = long["value"].to_numpy(dtype=float)
-    pos_vals = pos_vals[np.isfinite(pos_vals)]
-    log = bool(pos_vals.size and pos_vals.min() > 0 and pos_vals.max() / pos_vals.min() > 1e3)
-    scale = "log" if log else "linear"
-    for p in params:
-        fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
-        for v in variants:
-            xs, means, los, his = _mean_ci_by(long[long["variant"] == v], p)
-            numeric = _numeric(pd.Series(xs))
-            pos = np.asarray(xs, dtype=float) if numeric else np.arange(len(xs))
-            (line,) = ax.plot(pos, means, marker="o", label=v)
-            ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
-            if not numeric:
-                labels = [str(x) for x in xs]
-                long_labels = max(map(len, labels)) > 8  # timestamps: tilted, not overlapping
-                ax.set_xticks(pos, labels, rotation=30 if long_labels else 0,
-                              ha="right" if long_labels else "center")  # fmt: skip
-        ax.set_xlabel(p.removeprefix("param."))
-        ax.set_ylabel(f"{metric} (mean, 95 % CI)")
-        ax.set_yscale(scale)
-        ax.grid(alpha=0.3)
-        ax.legend(title="variant")
-        save(fig, f"{stem}_vs_{p.removeprefix('param.').replace('.', '_')}.png")
-    if len(params) == 2:
-        # Two swept parameters: the pooled lines above average one over the other; small
-        # multiples show each, the first (numeric if one is) along x, one panel per value of
-        # the other.
-        x_p, panel_p = params
-        if not _numeric(long[x_p]) and _numeric(long[panel_p]):
-            x_p, panel_p = panel_p, x_p
-        values = list(pd.unique(long[panel_p].dropna()))
-        panels = sorted(values) if _numeric(pd.Series(values)) else values
-        fig, axes = plt.subplots(
-            1, len(panels), figsize=(3.2 * len(panels) + 0.8, 3.6), dpi=110, sharey=True,
-            squeeze=False,
-        )  # fmt: skip
-        for ax, pv in zip(axes[0], panels, strict=True):
-            sub = long[long[panel_p] == pv]
-            for v in variants:
-                xs, means, los, his = _mean_ci_by(sub[sub["variant"] == v], x_p)
-                pos = np.asarray(xs, dtype=float) if _numeric(pd.Series(xs)) else np.arange(len(xs))
-                (line,) = ax.plot(pos, means, marker="o", label=v)
-                ax.fill_between(pos, los, his, alpha=0.2, color=line.get_color())
-            ax.set_title(f"{panel_p.removeprefix('param.')} = {pv}", fontsize=9)
-            ax.set_xlabel(x_p.removeprefix("param."))
-            ax.set_yscale(scale)
-            ax.grid(alpha=0.3)
-        axes[0][0].set_ylabel(f"{metric} (mean, 95 % CI)")
-        axes[0][-1].legend(title="variant", fontsize=8)
-        name = f"{stem}_vs_{x_p.removeprefix('param.')}_by_{panel_p.removeprefix('param.')}"
-        save(fig, name.replace(".", "_") + ".png")
-    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
-    for v in variants:
-        vals = np.sort(long.loc[long["variant"] == v, "value"].to_numpy(dtype=float))
-        vals = vals[np.isfinite(vals)]
-        ax.step(vals, np.arange(1, vals.size + 1) / max(vals.size, 1), where="post", label=v)
-    ax.set_xlabel(metric)
-    ax.set_xscale(scale)
-    ax.set_ylabel("fraction of runs ≤ x")
-    ax.grid(alpha=0.3)
-    ax.legend(title="variant")
-    save(fig, f"{stem}_cdf.png")
-    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
-    data = [long.loc[long["variant"] == v, "value"].dropna().to_numpy() for v in variants]
-    ax.boxplot(data, tick_labels=variants)
-    ax.set_yscale(scale)
-    ax.set_ylabel(metric)
-    ax.grid(alpha=0.3, axis="y")
-    save(fig, f"{stem}_box.png")
-    return written
-
-
-def _md_table(df: pd.DataFrame, float_fmt: str = "{:.3f}") -> str:
-    cols = list(df.columns)
-    lines = ["| " + " | ".join(c.removeprefix("param.") for c in cols) + " |"]
-    lines.append("|" + "---|" * len(cols))
-    for _, r in df.iterrows():
-        cells = []
-        for c in cols:
-            v = r[c]
-            cells.append(float_fmt.format(v) if isinstance(v, float) else str(v))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def write_report(out: str | Path, metric: str | None = None) -> Path:
-    """Write ``out/report/report.md`` and its figures from the campaign's rows; its path.
+# ---- the report ---------------------------------------------------------------------------------
+def write_report(
+    out: str | Path, metric: str | None = None, *, say: Callable[[str], None] | None = None
+) -> Path:
+    """Write ``out/report/<metric>/report.md`` (and .html, CSVs, figures); its path.
 
     ``metric`` None: each filter variant's ``heading_rmse_deg`` for a flight campaign, each
     method's ``error_deg`` for a study trial's (the MOI noise study).
@@ -280,64 +183,266 @@ def write_report(out: str | Path, metric: str | None = None) -> Path:
     from twin.campaign.results import load_campaign_results
 
     out = Path(out)
-    df = load_campaign_results(out)
+    df = load_campaign_results(out, say=say)
     total = len(df)
     ok = df[df["status"] == "ok"] if total else df
     if ok.empty:
-        raise ValueError(f"{out}: no finished run to report on ({total} rows on disk)")
+        extra = "; " + _left_out(df) if df.attrs.get("ignored") or df.attrs.get("corrupt") else ""
+        raise ValueError(f"{out}: no finished run to report on ({total} rows on disk{extra})")
     if metric is None:
-        metric = "heading_rmse_deg" if _variant_columns(ok, "heading_rmse_deg") else "error_deg"
+        metric = "heading_rmse_deg" if variant_columns(ok, "heading_rmse_deg") else "error_deg"
     long = long_table(ok, metric)
     if long.empty:
-        have = {c.rsplit(".", 1)[-1] for c in ok.columns if c.startswith(tuple(_VARIANT_PREFIXES))}
+        have = {c.rsplit(".", 1)[-1] for c in ok.columns if c.startswith(VARIANT_PREFIXES)}
         raise ValueError(f"--metric {metric}: no variant has it; the rows have {sorted(have)}")
-    folder = out / "report"
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = out / "report" / metric
+    if folder.exists():
+        shutil.rmtree(folder)  # this metric's earlier report, figures included
+    folder.mkdir(parents=True)
     groups = group_statistics(long)
     pairs = paired_comparisons(long)
-    figures = _figures(long, metric, folder)
+    figures = FigureMaker(long, metric, folder).all()
     groups.to_csv(folder / "groups.csv", index=False)
     pairs.to_csv(folder / "paired.csv", index=False)
 
-    def with_ci(name: str) -> pd.Series:
-        return groups.apply(
-            lambda r: f"{r[name]:.4g} [{r[name + '_lo']:.4g}, {r[name + '_hi']:.4g}]", axis=1
-        )
-
-    table = groups[[c for c in groups.columns if c.startswith("param.")] + ["variant", "n"]].copy()
-    for name in STATISTICS:
-        table[name] = with_ci(name)
-    table["max"] = groups["max"].map(lambda v: f"{v:.4g}")
-    ptable = pairs.copy()
-    if not ptable.empty:
-        ptable["a − b"] = ptable.apply(
-            lambda r: f"{r['mean_diff']:+.4g} [{r['diff_lo']:+.4g}, {r['diff_hi']:+.4g}]", axis=1
-        )
-        ptable = ptable[
-            [c for c in ptable.columns if c.startswith("param.")]
-            + ["a", "b", "n_pairs", "a − b", "a_better_fraction"]
-        ]
-    statuses = df["status"].value_counts().to_dict()
-    md = [
-        f"# Campaign report: {metric}",
-        "",
-        f"Rows on disk: {total} ({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))}); "
-        f"the statistics use the {len(ok)} finished runs. Intervals are 95 % percentile "
-        f"bootstrap ({_RESAMPLES} resamples, seeded). Generated by `auv-twin campaign report`.",
-        "",
-        "## Per group",
-        "",
-        _md_table(table),
-        "",
-        "## Paired comparisons (same runs: same seed, same frames)",
-        "",
-        _md_table(ptable) if not ptable.empty else "(one variant only)",
-        "",
-        "## Figures",
-        "",
-        *[f"![{p.stem}]({p.name})" for p in figures],
-        "",
-    ]
+    record = df.attrs.get("record") or {}
+    q = describe(metric)
+    doc = _Doc()
+    name = record.get("name", out.name)
+    title = f"Campaign report: {name}, {q.label}"
+    doc.h(1, title)
+    doc.p(
+        f"**{q.axis_label}**: {q.definition}. Metric key `{metric}` per variant "
+        f"({', '.join(f'`{v}`' for v in pd.unique(long['variant']))}). Generated by "
+        "`auv-twin campaign report` from the rows on disk; nothing in it is typed in."
+    )
+    _header(doc, record, df, ok, out)
+    _warnings(doc, df, ok, groups)
+    doc.h(2, "Per group")
+    _group_table(doc, groups)
+    doc.h(2, "Paired comparisons (same runs: same seed, same frames)")
+    _paired_table(doc, pairs)
+    doc.h(2, "Figures")
+    for i, fig in enumerate(figures, 1):
+        doc.figure(fig, i)
     path = folder / "report.md"
-    path.write_text("\n".join(md))
+    path.write_text(doc.markdown())
+    (folder / "report.html").write_text(doc.html(title))
     return path
+
+
+def _left_out(df: pd.DataFrame) -> str:
+    parts = []
+    if df.attrs.get("ignored"):
+        parts.append(f"{df.attrs['ignored']} row files of other experiments ignored")
+    if df.attrs.get("corrupt"):
+        parts.append(f"unreadable row files set aside: {', '.join(df.attrs['corrupt'])}")
+    return "; ".join(parts)
+
+
+def _header(doc: _Doc, record: Mapping[str, Any], df: pd.DataFrame, ok: pd.DataFrame, out: Path):
+    doc.h(2, "Provenance")
+    mine = provenance(fingerprint=record.get("fingerprint"))
+    lines = ["This report: " + "; ".join(describe_provenance(mine))]
+    camp = record.get("provenance")
+    if camp:
+        lines.append("The campaign run: " + "; ".join(describe_provenance(camp)))
+    lines += _row_provenance(out, df)
+    doc.items(lines)
+    doc.h(2, "Experiment")
+    parts = record.get("parts") or {}
+    if not record:
+        doc.p(
+            "This folder has no experiment record (made before auv-twin kept one): the spec's "
+            "base, changes and sweep are not known; the rows are reported as found."
+        )
+    else:
+        items = [
+            f"Spec `{record.get('source')}`, fingerprint `{record.get('fingerprint')}`"
+            + (f": {record['description']}" if record.get("description") else ""),
+        ]
+        if parts.get("trial") not in (None, "scenario"):
+            items.append(f"Study trial `{parts['trial']}`")
+        else:
+            items.append(
+                f"Base scenario `{parts.get('base_name')}` (content fingerprint "
+                f"`{parts.get('base')}`)"
+            )
+        fixed = parts.get("set") or {}
+        items.append(
+            "Fixed changes (`[set]`): "
+            + (
+                ", ".join(f"`{k}` = {json.dumps(v, default=str)}" for k, v in fixed.items())
+                if fixed
+                else "none"
+            )
+        )
+        axes = parts.get("axes") or {}
+        for paths, values in axes.items():
+            qd = describe(paths.split("; ")[0])
+            vals = ", ".join(_cell(v) for v in values)
+            items.append(f"Swept {qd.axis_label} (`{paths}`): {vals}")
+        if len(axes) > 1:
+            items.append(f"Axes combined as a {parts.get('combine')}")
+        seeds = parts.get("seeds") or []
+        items.append(f"Seeds: {_seeds_text(seeds)}")
+        items.append(
+            f"Kept metrics: {', '.join(f'`{m}`' for m in parts.get('metrics', []))}; light "
+            f"model version {parts.get('light_model')}"
+        )
+        hist = record.get("history") or []
+        if len(hist) > 1:
+            items.append(
+                f"The folder grew {len(hist) - 1} time(s): "
+                + " → ".join(f"{h['runs']} runs ({h['created_utc']})" for h in hist)
+            )
+        doc.items(items)
+    statuses = df["status"].value_counts().to_dict()
+    doc.h(2, "Statistics")
+    doc.items(
+        [
+            f"Rows of this experiment on disk: {len(df)} "
+            f"({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))}); the statistics use "
+            f"the {len(ok)} finished runs.",
+            f"Intervals: {100 * CONFIDENCE:g} %. Groups of at least {SMALL_N} runs: "
+            f"{BOOTSTRAP} ({RESAMPLES} resamples, seeded) of each statistic. Smaller groups: "
+            "Student t for the mean, the order-statistic (binomial) interval for the median "
+            "from 6 runs on, no interval for the RMSE and the 95th percentile.",
+            "Paired comparisons: the mean of the per-run differences a − b over the same runs "
+            "(same seed, same frames), with the same interval rule; 'a better' is the fraction "
+            "of runs where a's value is lower.",
+        ]
+    )
+
+
+def _seeds_text(seeds: list[int]) -> str:
+    if not seeds:
+        return "none"
+    if seeds == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{len(seeds)} ({seeds[0]}–{seeds[-1]})"
+    return f"{len(seeds)} ({', '.join(map(str, seeds[:10]))}{', …' if len(seeds) > 10 else ''})"
+
+
+def _row_provenance(out: Path, df: pd.DataFrame) -> list[str]:
+    """What the rows' own metadata say: the commits and package sets that made them."""
+    seen: dict[str, int] = {}
+    for run_id in df["run_id"]:
+        path = out / "runs" / f"{run_id}.parquet"
+        try:
+            block = read_parquet_provenance(path) if path.is_file() else None
+        except Exception:  # an unreadable footer: load_campaign_results sets such files aside
+            block = None
+        if block is None:
+            key = "no provenance (a row from before auv-twin recorded it, or from results.parquet)"
+        else:
+            commit = block.get("commit")
+            code = (
+                f"commit {commit[:12]}{' (dirty)' if block.get('dirty') else ''}"
+                if commit
+                else "no commit"
+            )
+            key = (
+                f"auv-twin {block.get('auv_twin')}, {code}"
+                + f", light model {block.get('light_model')}, "
+                + ", ".join(f"{k} {v}" for k, v in sorted((block.get("packages") or {}).items()))
+            )
+        seen[key] = seen.get(key, 0) + 1
+    if len(seen) == 1:
+        return [f"Every run was made by {next(iter(seen))}."]
+    return [
+        f"**The runs were made by {len(seen)} different code or package versions:**",
+        *[f"{n} runs: {k}" for k, n in seen.items()],
+    ]
+
+
+def _warnings(doc: _Doc, df: pd.DataFrame, ok: pd.DataFrame, groups: pd.DataFrame) -> None:
+    lines = []
+    small = groups[groups["n"] < SMALL_N]
+    if len(small):
+        lines.append(
+            f"{len(small)} of {len(groups)} groups have fewer than {SMALL_N} runs (smallest "
+            f"n = {int(small['n'].min())}): their intervals use the small-sample methods "
+            "above, and their RMSE and 95th percentile have none. Add seeds for intervals of "
+            "every statistic."
+        )
+    if "warnings" in ok.columns:
+        warned = ok[ok["warnings"].fillna("").astype(str) != ""]
+        counts: dict[tuple[str, str], int] = {}
+        example: dict[tuple[str, str], str] = {}
+        for text in warned["warnings"]:
+            for w in str(text).split(" | "):
+                # The same warning in many runs, with the run's own numbers: counted once.
+                kind = "no compass fix" if "gave no fix" in w else "too few fixes fused"
+                key = (w.split(":", 1)[0], kind)
+                counts[key] = counts.get(key, 0) + 1
+                example.setdefault(key, w)
+        for key, n in sorted(counts.items(), key=lambda kv: -kv[1]):
+            lines.append(f"**{key[0]}: {key[1]} in {n} of {len(ok)} runs**, e.g. {example[key]}")
+    bad = df[df["status"] != "ok"]
+    if len(bad):
+        lines.append(
+            f"{len(bad)} runs did not finish and are left out: "
+            + ", ".join(f"{k} {v}" for k, v in bad["status"].value_counts().items())
+            + f" (first error: {str(bad['error'].iloc[0])[:200]})"
+        )
+    left = _left_out(df)
+    if left:
+        lines.append(left[0].upper() + left[1:] + ".")
+    if lines:
+        doc.h(2, "Warnings")
+        doc.items(lines)
+
+
+def _param_header(c: str) -> str:
+    return describe(c).axis_label
+
+
+def _cell(v: Any) -> str:
+    """A swept value as the spec wrote it (5.0 as 5, 12.5 as 12.5)."""
+    if isinstance(v, float) and math.isfinite(v):
+        return f"{v:g}"
+    if isinstance(v, bool):
+        return str(v)
+    return str(v) if not (isinstance(v, float) and math.isnan(v)) else "—"
+
+
+def _group_table(doc: _Doc, groups: pd.DataFrame) -> None:
+    params = [c for c in groups.columns if c.startswith("param.")]
+    methods = set(groups["ci_method"])
+    uniform = len(methods) == 1
+    doc.p(
+        "Each statistic over the runs of a group, with its 95 % interval; "
+        + (f"interval method: {next(iter(methods))}." if uniform else "the interval method is "
+           "given per group (small groups differ).")
+    )  # fmt: skip
+    header = [_param_header(p) for p in params] + ["variant", "n"]
+    header += [f"{_STAT_LABELS[s]} [95 % CI]" for s in STATISTICS] + ["max"]
+    if not uniform:
+        header.append("interval method")
+    rows = []
+    for _, r in groups.iterrows():
+        cells = [_cell(r[p]) for p in params] + [str(r["variant"]), str(int(r["n"]))]
+        cells += [fmt_ci(r[s], r[f"{s}_lo"], r[f"{s}_hi"]) for s in STATISTICS]
+        cells.append(fmt(r["max"]))
+        if not uniform:
+            cells.append(str(r["ci_method"]))
+        rows.append(cells)
+    doc.table(header, rows)
+
+
+def _paired_table(doc: _Doc, pairs: pd.DataFrame) -> None:
+    if pairs.empty:
+        doc.p("(one variant only)")
+        return
+    params = [c for c in pairs.columns if c.startswith("param.")]
+    header = [_param_header(p) for p in params]
+    header += ["a", "b", "pairs", "mean a − b [95 % CI]", "a better", "interval method"]
+    rows = []
+    for _, r in pairs.iterrows():
+        rows.append(
+            [_cell(r[p]) for p in params]
+            + [str(r["a"]), str(r["b"]), str(int(r["n_pairs"]))]
+            + [fmt_ci(r["mean_diff"], r["diff_lo"], r["diff_hi"], signed=True)]
+            + [f"{100 * r['a_better_fraction']:.0f} %", str(r["ci_method"])]
+        )
+    doc.table(header, rows)

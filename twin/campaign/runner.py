@@ -70,6 +70,7 @@ def execute_run(run: RunSpec, job: dict[str, Any]) -> dict[str, Any]:
         "spec_fingerprint": job.get("fingerprint", ""),
         "status": "ok",
         "error": "",
+        "warnings": "",
         # Where this row was made (the worker's machine and code): the row file's metadata.
         "_provenance": provenance(fingerprint=job.get("fingerprint"), seed=run.seed),
     }
@@ -130,6 +131,8 @@ def _finish(
     else:
         flat = flatten_metrics(metrics, job["metrics"])
         row.update({f"metric.{k}": v for k, v in flat.items()})
+        # The run's warnings (a compass variant that fused too few fixes): the report lists them.
+        row["warnings"] = " | ".join(str(w) for w in metrics.get("warnings", []))
         if not metrics.get("complete", True):
             row["status"] = "error"
             row["error"] = str(metrics.get("error", metrics.get("status", "incomplete")))
@@ -437,6 +440,7 @@ def _failed(r: RunSpec, why: str) -> dict[str, Any]:
         "spec_fingerprint": "",
         "status": "failed",
         "error": why,
+        "warnings": "",
         "wall_time_s": float("nan"),
         "_series": {},
     }
@@ -445,4 +449,8 @@ def _failed(r: RunSpec, why: str) -> dict[str, Any]:
 def _bar(total: int):
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="run", desc="campaign", file=sys.stderr)
+    from twin.app.run import progress_interval_s
+
+    return tqdm(
+        total=total, unit="run", desc="campaign", file=sys.stderr, mininterval=progress_interval_s()
+    )

@@ -18,10 +18,16 @@ from numpy.typing import NDArray
 from twin.onboard.polarization import PolarizationImage
 
 
-def intensity_u8(s0: NDArray[np.floating], *, percentile: float = 99.5) -> NDArray[np.uint8]:
-    """S0 as an 8-bit grey image (percentile-scaled, gamma 1/2.2); a dark frame stays black."""
+def intensity_u8(
+    s0: NDArray[np.floating], *, percentile: float = 99.5, top: float | None = None
+) -> NDArray[np.uint8]:
+    """S0 as an 8-bit grey image (gamma 1/2.2); a dark frame stays black.
+
+    Scaled to ``top`` (DN: a fixed scale across images) or else to the image's own percentile.
+    """
     s = np.asarray(s0, dtype=np.float32)
-    top = float(np.percentile(s, percentile)) if s.size else 0.0
+    if top is None:
+        top = float(np.percentile(s, percentile)) if s.size else 0.0
     if not (math.isfinite(top) and top > 0):
         return np.zeros(s.shape, dtype=np.uint8)
     x = np.clip(s / top, 0.0, 1.0) ** (1.0 / 2.2)
@@ -52,13 +58,18 @@ def signal_mask(pol: PolarizationImage, min_s0: float = 20.0) -> NDArray[np.bool
     return np.asarray(pol.s0) > min_s0
 
 
-def write_pngs(pol: PolarizationImage, out_dir: Path | str, stem: str) -> list[Path]:
-    """Write ``{stem}_intensity.png``, ``_aop.png`` and ``_dop.png``; return the paths."""
+def write_pngs(
+    pol: PolarizationImage, out_dir: Path | str, stem: str, s0_max: float | None = None
+) -> list[Path]:
+    """Write ``{stem}_intensity.png``, ``_aop.png`` and ``_dop.png``; return the paths.
+
+    ``s0_max`` fixes the intensity scale's top (DN); None scales each image to itself.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     mask = signal_mask(pol)
     images = {
-        "intensity": intensity_u8(pol.s0),
+        "intensity": intensity_u8(pol.s0, top=s0_max),
         "aop": cv2.cvtColor(aop_rgb(pol.aop, mask), cv2.COLOR_RGB2BGR),
         "dop": cv2.cvtColor(dop_rgb(pol.dop, mask), cv2.COLOR_RGB2BGR),
     }
