@@ -13,3 +13,11 @@ def crash_or_echo(params: Mapping[str, Any], seed: int) -> dict[str, Any]:
     if params.get("crash"):
         os.kill(os.getpid(), signal.SIGSEGV)
     return {"value": float(seed) + float(params.get("offset", 0.0))}
+
+
+def sleep_then_echo(params: Mapping[str, Any], seed: int) -> dict[str, Any]:
+    """Sleep ``params["sleep_s"]`` (a run long enough to be caught in flight), then echo."""
+    import time
+
+    time.sleep(float(params.get("sleep_s", 0.0)))
+    return {"value": float(seed)}

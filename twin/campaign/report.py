@@ -190,11 +190,14 @@ def write_report(
         extra = "; " + _left_out(df) if df.attrs.get("ignored") or df.attrs.get("corrupt") else ""
         raise ValueError(f"{out}: no finished run to report on ({total} rows on disk{extra})")
     if metric is None:
-        metric = "heading_rmse_deg" if variant_columns(ok, "heading_rmse_deg") else "error_deg"
+        metric = next(
+            (m for m in ("heading_rmse_deg", "error_deg") if variant_columns(ok, m)), None
+        )
+        if metric is None:
+            raise ValueError(f"{out}: the runs have no heading_rmse_deg or error_deg; {_have(ok)}")
     long = long_table(ok, metric)
     if long.empty:
-        have = {c.rsplit(".", 1)[-1] for c in ok.columns if c.startswith(VARIANT_PREFIXES)}
-        raise ValueError(f"--metric {metric}: no variant has it; the rows have {sorted(have)}")
+        raise ValueError(f"--metric {metric}: no variant or run has it; {_have(ok)}")
     folder = out / "report" / metric
     if folder.exists():
         shutil.rmtree(folder)  # this metric's earlier report, figures included
@@ -229,6 +232,18 @@ def write_report(
     path.write_text(doc.markdown())
     (folder / "report.html").write_text(doc.html(title))
     return path
+
+
+def _have(ok: pd.DataFrame) -> str:
+    per_variant = sorted(
+        {c.rsplit(".", 1)[-1] for c in ok.columns if c.startswith(VARIANT_PREFIXES)}
+    )
+    per_run = sorted(
+        c.removeprefix("metric.")
+        for c in ok.columns
+        if c.startswith("metric.") and not c.startswith(VARIANT_PREFIXES)
+    )
+    return f"choose --metric from the variants' {per_variant[:20]} or the runs' {per_run[:20]}"
 
 
 def _left_out(df: pd.DataFrame) -> str:

@@ -431,7 +431,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         values = _axis_values(i, t, rng, errs)
         labels = [param_value(v) for v in values]
         dup = sorted({_show(v) for v in labels if labels.count(v) > 1})
-        if dup:
+        if dup and combine == "grid":  # zipped axes may repeat a value (in other pairs)
             errs.append(
                 f"sweep[{i}].values: {', '.join(dup)} given more than once; allowed: distinct "
                 "values (a repeated value would fly the same runs twice)"

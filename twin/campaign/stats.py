@@ -107,13 +107,23 @@ def interval(a: np.ndarray, name: str, seed: int = 0) -> tuple[float, float, str
     return (math.nan, math.nan, f"none (n < {SMALL_N})")
 
 
+#: The one "variant" of a metric that is per run, not per filter variant (a study's own metric).
+RUN = "run"
+
+
 def variant_columns(df: pd.DataFrame, metric: str) -> dict[str, str]:
-    """{variant: column} of ``metric`` under any of the variant prefixes."""
+    """{variant: column} of ``metric`` under any of the variant prefixes.
+
+    A metric that no variant has but the run does (``metric.<metric>``, e.g. a user's study
+    trial's ``value``) is one series named :data:`RUN`.
+    """
     out = {}
     for c in df.columns:
         for prefix in VARIANT_PREFIXES:
             if c.startswith(prefix) and c.endswith("." + metric):
                 out[c[len(prefix) : -len(metric) - 1]] = c
+    if not out and f"metric.{metric}" in df.columns:
+        out[RUN] = f"metric.{metric}"
     return out
 
 
