@@ -1073,7 +1073,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
         depth_aiding=t.boolean("depth_aiding", default=True),
         initial_error=t.boolean("initial_error", default=True),
         gate_probability=t.number("gate_probability", GATE_PROBABILITY, default=0.999),
-        sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="vector"),
+        sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="azimuth"),
         tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
         alignment=t.string("alignment", choices=NAV_ALIGNMENTS, default="paper"),
     )

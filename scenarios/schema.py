@@ -401,7 +401,7 @@ class Navigation:
     depth_aiding: bool = True
     initial_error: bool = True
     gate_probability: float = 0.999
-    sun_measurement: str = "vector"
+    sun_measurement: str = "azimuth"
     tuning: str = "imu"
     alignment: str = "paper"
 

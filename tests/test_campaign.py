@@ -15,6 +15,7 @@ import pytest
 
 from twin.app.cli import main
 from twin.campaign.report import write_report
+from twin.campaign.stats import fmt_ci
 from twin.campaign.results import load_campaign_results
 from twin.campaign.runner import _job, execute_run, run_campaign
 from twin.campaign.spec import CampaignError, RunSpec, load_campaign, parse_campaign, set_path
@@ -341,7 +342,9 @@ def test_the_report_computes_from_the_rows_and_draws_real_figures(tmp_path: Path
     pd.testing.assert_frame_equal(twin.load_campaign_results(out), load_campaign_results(out))
     md = write_report(out)
     text = md.read_text()
-    groups = pd.read_csv(out / "report" / "groups.csv")
+    folder = out / "report" / "heading_rmse_deg"
+    assert md == folder / "report.md"
+    groups = pd.read_csv(folder / "groups.csv")
     rows = load_campaign_results(out)
     # The table is the rows' statistics: the mean per (depth, variant) is pandas' own.
     for _, g in groups.iterrows():
@@ -349,8 +352,8 @@ def test_the_report_computes_from_the_rows_and_draws_real_figures(tmp_path: Path
         col = f"metric.navigation.variants.{g['variant']}.heading_rmse_deg"
         assert g["mean"] == pytest.approx(sel[col].mean())
         assert g["mean_lo"] <= g["mean"] <= g["mean_hi"] and g["n"] == 3
-        assert f"{g['mean']:.4g}" in text
-    paired = pd.read_csv(out / "report" / "paired.csv")
+        assert fmt_ci(g["mean"], g["mean_lo"], g["mean_hi"]) in text
+    paired = pd.read_csv(folder / "paired.csv")
     assert set(zip(paired["a"], paired["b"], strict=True)) == {
         ("ins", "lig"),
         ("ins", "pol"),
@@ -361,7 +364,7 @@ def test_the_report_computes_from_the_rows_and_draws_real_figures(tmp_path: Path
         "heading_rmse_deg_cdf",
         "heading_rmse_deg_box",
     ):
-        png = out / "report" / f"{name}.png"
+        png = folder / f"{name}.png"
         assert f"({png.name})" in text
         img = mpimg.imread(png)
         assert img.shape[0] > 200 and img.std() > 0.05  # drawn, not blank
@@ -539,7 +542,7 @@ def test_the_moi_noise_study_runs_as_a_campaign_of_paired_trials(tmp_path: Path)
     assert (noisy[moi] < noisy[patz]).all()
     report = write_report(tmp_path / "m")
     text = report.read_text()
-    assert "# Campaign report: error_deg" in text and "| moi |" in text
+    assert "# Campaign report: moi_small, azimuth error" in text and "| moi |" in text
     # Two swept parameters: small multiples (error vs elevation, one panel per case).
     png = report.parent / "error_deg_vs_elevation_deg_by_case.png"
     assert f"({png.name})" in text

@@ -56,7 +56,7 @@ def test_a_second_experiment_into_the_same_folder_is_refused_before_any_run(
     assert main(["campaign", "run", str(second), "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "holds another experiment" in err and "Traceback" not in err
-    assert "set ({\"duration_s\": 2.0} -> {\"duration_s\": 3.0})" in err  # names what differs
+    assert 'set ({"duration_s": 2.0} -> {"duration_s": 3.0})' in err  # names what differs
     assert "--out out_2" in err  # and suggests a new folder
     assert sorted((out / "runs").iterdir()) == rows_before  # no run was made
     # The report still holds the first experiment alone: 4 runs, n = 2 per group.
@@ -79,8 +79,11 @@ def test_growing_the_same_experiment_resumes_and_other_rows_are_ignored(tmp_path
     assert rec["runs"] == 6 and len(rec["history"]) == 2
     # Shrinking drops runs of the folder's experiment: another experiment.
     with pytest.raises(FolderError, match="4 of its 6 runs are not runs of this spec"):
-        run_campaign(parse_campaign(_echo(2, sweep=[{"path": "offset", "values": [0.0]}])),
-                     out, on_message=_quiet)  # fmt: skip
+        run_campaign(
+            parse_campaign(_echo(2, sweep=[{"path": "offset", "values": [0.0]}])),
+            out,
+            on_message=_quiet,
+        )
     # A row file that is not the experiment's (copied in by hand) is ignored and counted.
     foreign = tmp_path / "f"
     run_campaign(parse_campaign(_echo(1, set={"offset": 5.0})), foreign, on_message=_quiet)
@@ -122,8 +125,9 @@ def test_a_folder_with_only_results_parquet_is_reported(tmp_path: Path) -> None:
     assert "| run | 3 |" in write_report(out, metric="value").read_text()
     # A study's per-method metrics report from results.parquet alone.
     out2 = tmp_path / "m"
-    spec = parse_campaign({"name": "m", "trial": "moi_noise", "seeds": 2,
-                           "set": {"methods": ["moi", "patz"]}})  # fmt: skip
+    spec = parse_campaign(
+        {"name": "m", "trial": "moi_noise", "seeds": 2, "set": {"methods": ["moi", "patz"]}}
+    )
     run_campaign(spec, out2, on_message=_quiet)
     shutil.rmtree(out2 / "runs")
     assert "| moi |" in write_report(out2).read_text()
@@ -142,11 +146,22 @@ def test_two_campaigns_into_one_folder_the_second_stops_at_once(tmp_path: Path, 
     out.mkdir()
     with locked(out):  # a campaign holds the folder (this process; the lock is per open file)
         code = subprocess.run(
-            [sys.executable, "-m", "twin.app.cli", "campaign", "run", str(spec), "--out",
-             str(out), "--quiet"],
-            capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(TESTS)},
+            [
+                sys.executable,
+                "-m",
+                "twin.app.cli",
+                "campaign",
+                "run",
+                str(spec),
+                "--out",
+                str(out),
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(TESTS)},
             timeout=120,
-        )  # fmt: skip
+        )
     assert code.returncode == 2, code.stderr
     assert f"in use by another campaign (pid {os.getpid()})" in code.stderr
     assert not (out / "runs").exists()
@@ -157,26 +172,38 @@ def test_workers_die_with_their_campaign(tmp_path: Path) -> None:
 
     spec = tmp_path / "z.toml"
     spec.write_text(
-        'name = "z"\ntrial = "campaign_trials:sleep_then_echo"\nseeds = 8\n'
-        "[set]\nsleep_s = 30.0\n"
+        'name = "z"\ntrial = "campaign_trials:sleep_then_echo"\nseeds = 8\n[set]\nsleep_s = 30.0\n'
     )
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twin.app.cli", "campaign", "run", str(spec), "--out",
-         str(tmp_path / "z"), "--quiet", "--workers", "2"],
+        [
+            sys.executable,
+            "-m",
+            "twin.app.cli",
+            "campaign",
+            "run",
+            str(spec),
+            "--out",
+            str(tmp_path / "z"),
+            "--quiet",
+            "--workers",
+            "2",
+        ],
         env={**os.environ, "PYTHONPATH": str(TESTS)},
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + 60
     workers: list = []
     while time.monotonic() < deadline and len(workers) < 2:
-        workers = [p for p in parent.children(recursive=True)
-                   if "multiprocessing" in " ".join(p.cmdline())]  # fmt: skip
+        workers = [
+            p for p in parent.children(recursive=True) if "multiprocessing" in " ".join(p.cmdline())
+        ]
         time.sleep(0.2)
     assert len(workers) >= 2
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=10)
-    gone, alive = psutil.wait_procs(workers, timeout=10)
+    _gone, alive = psutil.wait_procs(workers, timeout=10)
     assert not alive, [p.pid for p in alive]
 
 
@@ -187,10 +214,14 @@ def test_mixed_datetime_and_string_start_times_consolidate(tmp_path: Path) -> No
             "base": "tank",
             "set": {"duration_s": 1.0},
             "metrics": ["sim_time_s"],
-            "sweep": [{"path": "start_utc", "values": [
-                dt.datetime(2021, 9, 3, 1, tzinfo=dt.UTC), "2021-09-03T03:00:00Z"]}],
+            "sweep": [
+                {
+                    "path": "start_utc",
+                    "values": [dt.datetime(2021, 9, 3, 1, tzinfo=dt.UTC), "2021-09-03T03:00:00Z"],
+                }
+            ],
         }
-    )  # fmt: skip
+    )
     out = tmp_path / "w"
     assert run_campaign(spec, out, on_message=_quiet) == {"ok": 2}
     df = pd.read_parquet(out / "results.parquet")
@@ -201,15 +232,27 @@ def test_mixed_datetime_and_string_start_times_consolidate(tmp_path: Path) -> No
     ("data", "text"),
     [
         (_echo(seeds=[2**63]), "integers in [0, 9223372036854775807]"),
-        ({"name": "s", "base": "tank", "sweep": [{"path": "seed", "values": [1, 2, 3]}]},
-         "sweep[0].path: \"seed\""),  # fmt: skip
+        (
+            {"name": "s", "base": "tank", "sweep": [{"path": "seed", "values": [1, 2, 3]}]},
+            'sweep[0].path: "seed"',
+        ),
         ({"name": "s", "base": "tank", "set": {"seed": 4}}, "set.seed"),
-        ({"name": "s", "base": "tank",
-          "sweep": [{"path": "water.temperature_c", "values": [10.0, 20.0, 10.0]}]},
-         "10.0 given more than once"),  # fmt: skip
-        ({"name": "s", "base": "tank",
-          "sweep": [{"path": "water.temperature_c", "values": [25.0, 25]}]},
-         "given more than once"),  # fmt: skip
+        (
+            {
+                "name": "s",
+                "base": "tank",
+                "sweep": [{"path": "water.temperature_c", "values": [10.0, 20.0, 10.0]}],
+            },
+            "10.0 given more than once",
+        ),
+        (
+            {
+                "name": "s",
+                "base": "tank",
+                "sweep": [{"path": "water.temperature_c", "values": [25.0, 25]}],
+            },
+            "given more than once",
+        ),
     ],
     ids=["seed-2**63", "sweep-seed", "set-seed", "duplicate-values", "equal-values"],
 )
@@ -221,9 +264,15 @@ def test_specs_that_would_silently_misfly_are_refused(data: dict, text: str) -> 
 
 def test_two_sweep_values_that_make_one_scenario_are_refused() -> None:
     # Zipped axes may repeat a value, but not a whole pair: that pair would fly twice.
-    zipped = {"name": "s", "base": "tank", "combine": "zip",
-              "sweep": [{"path": "water.temperature_c", "values": [10.0, 20.0, 10.0]},
-                        {"path": "water.salinity_psu", "values": [30.0, 30.0, 30.0]}]}  # fmt: skip
+    zipped = {
+        "name": "s",
+        "base": "tank",
+        "combine": "zip",
+        "sweep": [
+            {"path": "water.temperature_c", "values": [10.0, 20.0, 10.0]},
+            {"path": "water.salinity_psu", "values": [30.0, 30.0, 30.0]},
+        ],
+    }
     with pytest.raises(CampaignError, match=r"runs 0 \(.*\) and 2 \(.*\), seed 0, resolve"):
         parse_campaign(zipped)
     zipped["sweep"][1]["values"] = [30.0, 30.0, 35.0]
@@ -250,10 +299,14 @@ def test_a_metric_pattern_that_matches_nothing_is_said(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("gravity", "text"),
     [
-        ('map = "seafloor"\nsize_km = [1.0, 1.0]\nspacing_m = 600.0\nstored_spacing_m = 600.0',
-         "gravity.spacing_m: 600 leaves fewer than 3 nodes"),  # fmt: skip
-        ('map = "seafloor"\nsize_km = [40.0, 40.0]\nspacing_m = 100.0',
-         "gravity.spacing_m: 100 on a 40 × 40 km seafloor"),  # fmt: skip
+        (
+            'map = "seafloor"\nsize_km = [1.0, 1.0]\nspacing_m = 600.0\nstored_spacing_m = 600.0',
+            "gravity.spacing_m: 600 leaves fewer than 3 nodes",
+        ),
+        (
+            'map = "seafloor"\nsize_km = [40.0, 40.0]\nspacing_m = 100.0',
+            "gravity.spacing_m: 100 on a 40 × 40 km seafloor",
+        ),
     ],
     ids=["too-coarse", "too-fine"],
 )

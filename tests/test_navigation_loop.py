@@ -153,6 +153,9 @@ def test_the_closed_loop_sea_trial_completes_its_mission(tmp_path) -> None:
     assert m["navigation"]["steering_on"] == "lig"
     lig = m["navigation"]["variants"]["lig"]
     assert lig["heading_rmse_deg"] < 3.0
+    # It steered on a LIG/INS that fused its fixes (with the old default, a full solar vector
+    # behind a 0.999 gate, it fused none: the "LIG/INS" was the INS alone).
+    assert lig["compass"]["fused_fraction"] > 0.9 and "warnings" not in m
     # The true heading followed the legs' headings on settled legs: the box was flown on the
     # estimate (the estimate's own error is part of it).
     assert m["steady_tracking"]["heading_error_rms_deg"] < 5.0
