@@ -49,10 +49,8 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
     t0 = time.perf_counter()
     counts = run_campaign(spec, out, workers=workers, progress=True)
     elapsed = time.perf_counter() - t0
-    shutil.rmtree(out / "report", ignore_errors=True)  # no figures of an earlier report
-    report = write_report(out)
-    df = load_campaign_results(out)
-    df = df[df["run_id"].isin({r.run_id for r in spec.runs})]
+    report = write_report(out)  # DIR/report/<metric>/, rewritten whole
+    df = load_campaign_results(out)  # the folder's experiment only
     dest = RESULTS / name
     if dest.exists():
         shutil.rmtree(dest)
@@ -64,7 +62,7 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
     t_end = [ends[i] for i in df["run_id"]]
     span = max(t_end) - min(t - w for t, w in zip(t_end, df["wall_time_s"], strict=True))
     header = [
-        f"# Study campaign `{name}` ({path.relative_to(ROOT)})",
+        f"## Study campaign `{name}` ({path.relative_to(ROOT)})",
         "",
         f"{spec.description}.",
         "",
@@ -87,12 +85,13 @@ def run_one(name: str, workers: int, seeds: int | None) -> None:
     extra = []
     for metric in EXTRA_METRICS.get(name, []):
         sub = dest / metric.split(".")[0]
-        shutil.rmtree(out / "report")
         shutil.copytree(write_report(out, metric=metric).parent, sub)
         extra.append(
             f"- The same runs, reported on `{metric}`: [{sub.name}/report.md]({sub.name}/report.md)"
         )
-    (dest / "report.md").write_text("\n".join(header + extra + [""]) + body.split("\n", 1)[1])
+    # The report's own title first, then how this benchmark ran it, then the report.
+    title, rest = body.split("\n", 1)
+    (dest / "report.md").write_text("\n".join([title, "", *header, *extra, ""]) + rest)
     print(f"{name}: {dest / 'report.md'}")
 
 

@@ -15,10 +15,10 @@ import pytest
 
 from twin.app.cli import main
 from twin.campaign.report import write_report
-from twin.campaign.stats import fmt_ci
 from twin.campaign.results import load_campaign_results
 from twin.campaign.runner import _job, execute_run, run_campaign
 from twin.campaign.spec import CampaignError, RunSpec, load_campaign, parse_campaign, set_path
+from twin.campaign.stats import fmt_ci
 
 SMALL = """
 name = "small"

@@ -365,3 +365,22 @@ def test_render_says_when_the_sun_is_down_and_refuses_a_preset_it_would_ignore(
     assert "allowed one of" in capsys.readouterr().err
     assert main(["render", "default", "--preset", "phx050s_p"]) == 2
     assert "has its own polarimeter" in capsys.readouterr().err
+
+
+def test_a_campaign_progress_bar_into_a_file_redraws_every_few_seconds(tmp_path: Path) -> None:
+    import time
+
+    spec = tmp_path / "s.toml"
+    spec.write_text('name = "s"\ntrial = "campaign_trials:crash_or_echo"\nseeds = 60\n')
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-m", "twin.app.cli", "campaign", "run", str(spec), "--out",
+         str(tmp_path / "o")],
+        capture_output=True, text=True, timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT / "tests")},
+    )  # fmt: skip
+    wall = time.perf_counter() - t0
+    assert proc.returncode == 0, proc.stderr
+    draws = proc.stderr.count("campaign:")
+    # 60 runs: one redraw a run was 60 lines; at most one every 5 s, plus the first and last.
+    assert 1 <= draws <= wall / 5 + 3, (draws, wall)

@@ -271,7 +271,9 @@ def _run_locked(
         if bar is not None:
             n_ok = counts.get("ok", 0)
             rate = sum(counts.values()) / max(time.perf_counter() - t0, 1e-9) * 60
-            bar.set_postfix(ok=n_ok, failed=sum(counts.values()) - n_ok, per_min=f"{rate:.1f}")
+            bar.set_postfix(
+                ok=n_ok, failed=sum(counts.values()) - n_ok, per_min=f"{rate:.1f}", refresh=False
+            )
             bar.update(1)
 
     try:
