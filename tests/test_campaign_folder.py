@@ -34,6 +34,14 @@ values = [10.0, 20.0]
 """
 
 
+def _cli(*args: str) -> list[str]:
+    """The command line a user types, as a subprocess (the study trials importable)."""
+    return [sys.executable, "-m", "twin.app.cli", *args]
+
+
+_ENV = {**os.environ, "PYTHONPATH": str(TESTS)}
+
+
 def _echo(seeds: int = 3, **extra) -> dict:
     return {"name": "echo", "trial": "campaign_trials:crash_or_echo", "seeds": seeds, **extra}
 
@@ -146,22 +154,9 @@ def test_two_campaigns_into_one_folder_the_second_stops_at_once(tmp_path: Path, 
     out.mkdir()
     with locked(out):  # a campaign holds the folder (this process; the lock is per open file)
         code = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "twin.app.cli",
-                "campaign",
-                "run",
-                str(spec),
-                "--out",
-                str(out),
-                "--quiet",
-            ],
-            capture_output=True,
-            text=True,
-            env={**os.environ, "PYTHONPATH": str(TESTS)},
-            timeout=120,
-        )
+            _cli("campaign", "run", str(spec), "--out", str(out), "--quiet"),
+            capture_output=True, text=True, env=_ENV, timeout=120,
+        )  # fmt: skip
     assert code.returncode == 2, code.stderr
     assert f"in use by another campaign (pid {os.getpid()})" in code.stderr
     assert not (out / "runs").exists()
@@ -175,23 +170,9 @@ def test_workers_die_with_their_campaign(tmp_path: Path) -> None:
         'name = "z"\ntrial = "campaign_trials:sleep_then_echo"\nseeds = 8\n[set]\nsleep_s = 30.0\n'
     )
     proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "twin.app.cli",
-            "campaign",
-            "run",
-            str(spec),
-            "--out",
-            str(tmp_path / "z"),
-            "--quiet",
-            "--workers",
-            "2",
-        ],
-        env={**os.environ, "PYTHONPATH": str(TESTS)},
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+        _cli("campaign", "run", str(spec), "--out", str(tmp_path / "z"), "--workers", "2"),
+        env=_ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + 60
     workers: list = []

@@ -188,7 +188,7 @@ def write_images(pol, out: Path, stem: str, title: str, s0_max: float | None) ->
 
 def write_float(pol, out: Path, stem: str, fmt: str) -> list[Path]:
     """S0 (DN), AoP (rad) and DoP as 32-bit floats: one .npz, or a TIFF each."""
-    import cv2
+    from twin.record.images import write_planes
 
     planes = {
         "s0": np.asarray(pol.s0, dtype=np.float32),
@@ -199,10 +199,4 @@ def write_float(pol, out: Path, stem: str, fmt: str) -> list[Path]:
         path = out / f"{stem}.npz"
         np.savez_compressed(path, **planes, units=np.array(["DN", "rad", "1"]))
         return [path]
-    paths = []
-    for name, a in planes.items():
-        path = out / f"{stem}_{name}.tiff"
-        if not cv2.imwrite(str(path), a):
-            raise OSError(f"could not write {path}")
-        paths.append(path)
-    return paths
+    return write_planes(planes, out, stem, "tiff")

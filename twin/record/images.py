@@ -73,9 +73,18 @@ def write_pngs(
         "aop": cv2.cvtColor(aop_rgb(pol.aop, mask), cv2.COLOR_RGB2BGR),
         "dop": cv2.cvtColor(dop_rgb(pol.dop, mask), cv2.COLOR_RGB2BGR),
     }
+    return write_planes(images, out, stem, "png")
+
+
+def write_planes(planes: dict[str, np.ndarray], out: Path, stem: str, ext: str) -> list[Path]:
+    """Write each image as ``{stem}_{name}.{ext}`` with OpenCV (8-bit PNG, 32-bit float TIFF).
+
+    Raises:
+        OSError: A file could not be written (naming it).
+    """
     paths = []
-    for kind, img in images.items():
-        p = out / f"{stem}_{kind}.png"
+    for name, img in planes.items():
+        p = Path(out) / f"{stem}_{name}.{ext}"
         if not cv2.imwrite(str(p), img):
             raise OSError(f"could not write {p}")
         paths.append(p)
