@@ -163,12 +163,17 @@ class Range:
         return not (self.hi is not None and (x >= self.hi if self.hi_open else x > self.hi))
 
     def __str__(self) -> str:
+        def num(x: float) -> str:  # an int bound exactly (a seed's 2**63 - 1), a float short
+            return str(x) if isinstance(x, int) else f"{x:g}"
+
         if self.hi is None:
-            return f"{'>' if self.lo_open else '>='} {self.lo:g}" if self.lo is not None else "any"
+            return (
+                f"{'>' if self.lo_open else '>='} {num(self.lo)}" if self.lo is not None else "any"
+            )
         if self.lo is None:
-            return f"{'<' if self.hi_open else '<='} {self.hi:g}"
+            return f"{'<' if self.hi_open else '<='} {num(self.hi)}"
         left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
-        return f"{left}{self.lo:g}, {self.hi:g}{right}"
+        return f"{left}{num(self.lo)}, {num(self.hi)}{right}"
 
 
 NON_NEGATIVE = Range(0.0)
