@@ -1,7 +1,10 @@
 """Running a campaign: every run in a worker process, results written as each run finishes.
 
 The local backend is a pool of worker processes (``spawn``) that live for the whole campaign,
-so each pays the ~3 s of imports once. Each run is isolated:
+so each pays the ~3 s of imports once; one worker is a pool of one, never the campaign's own
+process. Workers die with the campaign (SIGKILL included). The campaign holds the folder's lock
+and runs only a spec of the folder's experiment (:mod:`twin.campaign.folder`). Each run is
+isolated:
 
 * a run that raises, or whose kept metrics hold NaN, is recorded with its status ("error",
   "nan") and error text, and the campaign goes on;
