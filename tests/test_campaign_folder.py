@@ -131,20 +131,12 @@ def test_a_folder_with_only_results_parquet_is_reported(tmp_path: Path) -> None:
     assert len(df) == 3
     # A run's own metric (no filter variants): one series, named "run".
     assert "| run | 3 |" in write_report(out, metric="value").read_text()
-    # A study's per-method metrics report from results.parquet alone.
-    out2 = tmp_path / "m"
-    spec = parse_campaign(
-        {"name": "m", "trial": "moi_noise", "seeds": 2, "set": {"methods": ["moi", "patz"]}}
-    )
-    run_campaign(spec, out2, on_message=_quiet)
-    shutil.rmtree(out2 / "runs")
-    assert "| moi |" in write_report(out2).read_text()
 
 
 def test_one_worker_is_as_isolated_as_two(tmp_path: Path) -> None:
-    spec = parse_campaign(_echo(2, sweep=[{"path": "crash", "values": [False, True]}]))
+    spec = parse_campaign(_echo(1, sweep=[{"path": "crash", "values": [True, False]}]))
     counts = run_campaign(spec, tmp_path / "s", workers=1, on_message=_quiet)
-    assert counts == {"ok": 2, "failed": 2}
+    assert counts == {"ok": 1, "failed": 1}  # the segfault, then the next run, each recorded
 
 
 def test_two_campaigns_into_one_folder_the_second_stops_at_once(tmp_path: Path, capsys) -> None:

@@ -165,11 +165,17 @@ def _job(spec: CampaignSpec) -> dict[str, Any]:
     }
 
 
-def _worker_init(parent: int | None = None) -> None:
-    # Pay the imports once per worker; let the parent handle Ctrl-C; die with the parent.
+def _worker_init(parent: int | None = None, flights: bool = True) -> None:
+    # Pay the imports once per worker (a flight's: ~2 s); let the parent handle Ctrl-C; die
+    # with the parent.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with(parent if parent is not None else os.getppid())
-    import twin.app.run  # noqa: F401
+    if flights:
+        import twin.app.run  # noqa: F401
+
+
+def _init_args(job: dict[str, Any]) -> tuple[int, bool]:
+    return (os.getpid(), job.get("trial", SCENARIO) == SCENARIO)
 
 
 def _die_with(parent: int) -> None:
@@ -368,7 +374,7 @@ def _run_pool(
     queue.reverse()  # pop() from the end: the runs go in index order
     while queue:
         pool = cf.ProcessPoolExecutor(
-            max_workers=workers, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+            max_workers=workers, mp_context=ctx, initializer=_worker_init, initargs=_init_args(job)
         )
         futures: dict[cf.Future, RunSpec] = {}
         retry: list[RunSpec] = []
@@ -416,7 +422,7 @@ def _run_alone(r: RunSpec, job: dict, ctx: Any) -> dict[str, Any]:
     run killed it; alone, a run that dies again is the culprit and the others are innocent.
     """
     pool = cf.ProcessPoolExecutor(
-        max_workers=1, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+        max_workers=1, mp_context=ctx, initializer=_worker_init, initargs=_init_args(job)
     )
     try:
         return pool.submit(execute_run, r, job).result()
