@@ -187,10 +187,13 @@ def test_each_metric_reports_into_its_own_folder_and_a_rerun_leaves_no_stale_fig
     b = write_report(campaign, "roll_rmse_deg").parent
     assert a != b and a.is_dir() and b.is_dir()
     assert not list(b.glob("heading_rmse_deg*")) and list(b.glob("roll_rmse_deg_*.png"))
+    before = {p.name: p.read_bytes() for p in a.glob("*.[ps][nv]g")}
     stale = a / "heading_rmse_deg_vs_old_axis.png"
     stale.write_bytes(b"")
     write_report(campaign, "heading_rmse_deg")
     assert not stale.exists()
+    # The same rows give the same figure files, byte for byte (no dates, fixed SVG ids).
+    assert {p.name: p.read_bytes() for p in a.glob("*.[ps][nv]g")} == before
 
 
 def _chrome():

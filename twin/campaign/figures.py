@@ -96,8 +96,10 @@ class FigureMaker:
             fig.text(0.01, 0.01, note, fontsize=7, color="#444", va="bottom", wrap=True)
         fig.tight_layout(rect=(0, 0.05 if note else 0, 1, 1))
         png, svg = self.folder / f"{name}.png", self.folder / f"{name}.svg"
-        fig.savefig(png, dpi=DPI)
-        fig.savefig(svg)
+        # No date in the files and fixed SVG ids: the same rows give the same figure files.
+        fig.savefig(png, dpi=DPI, metadata={"Software": None})
+        with self.plt.rc_context({"svg.hashsalt": "auv-twin"}):
+            fig.savefig(svg, metadata={"Date": None})
         self.plt.close(fig)
         self.figures.append(Figure(png, svg, title, caption))
 
