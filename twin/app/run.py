@@ -34,7 +34,7 @@ from twin.app.simulation import Simulation, build_simulation
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
 from twin.record.provenance import fingerprint, provenance
-from twin.record.recorder import Recorder, default_blueprint
+from twin.record.recorder import Recorder, compact, default_blueprint
 from twin.record.timeseries import TimeSeriesWriter
 from twin.scoring.mission import format_summary, fusion_warnings, summarize
 from twin.scoring.observer import RunScorer
@@ -171,6 +171,7 @@ def run_scenario(
                 out / "recording.rrd",
                 recording_id=f"{scenario.name}-seed{seed_used}",
                 start_utc=scenario.start_utc,
+                compact=False,  # compacted after metrics.json is written (below)
                 blueprint=default_blueprint(
                     tuple(world.navigators), gravity=world.stored_map is not None
                 ),
@@ -245,6 +246,9 @@ def run_scenario(
             files = series.write(out, base["provenance"])
             metrics["timeseries"] = [str(p.relative_to(out)) for p in files]
         _write_json_atomic(metrics_path, metrics)
+        if rec is not None and recording_error is None:
+            # Last, so that a Ctrl-C here leaves the metrics written and the recording whole.
+            compact(out / "recording.rrd")
         if on_scored is not None:
             on_scored(scorer)
         if recording_error is not None and sys.exc_info()[0] is None:

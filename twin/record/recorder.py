@@ -246,6 +246,9 @@ def compact(path: Path | str) -> Path:
         tmp.replace(path)
     except (OSError, subprocess.SubprocessError):
         tmp.unlink(missing_ok=True)
+    except KeyboardInterrupt:  # the closed original stays whole; no half-written copy is left
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
