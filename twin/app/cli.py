@@ -7,9 +7,13 @@ import os
 import sys
 from pathlib import Path
 
-import scenarios
-from scenarios import ScenarioError
-from twin.app import render
+from twin.app.interrupts import held
+
+# A Ctrl-C while these load is held, and answered by main() (twin.app.interrupts says why).
+with held(raise_after=False) as _startup:
+    import scenarios
+    from scenarios import ScenarioError
+    from twin.app import render
 
 
 def writable_out(out: str | Path) -> Path | None:
@@ -51,7 +55,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from twin.app.run import format_summary, run_scenario  # heavy: when running
+    with held():  # heavy: when running
+        from twin.app.run import format_summary, run_scenario
 
     try:
         sc = scenarios.load(args.scenario)
@@ -112,7 +117,9 @@ def _cmd_campaign_validate(args: argparse.Namespace) -> int:
 
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
     from twin.campaign.folder import FolderError
-    from twin.campaign.runner import run_campaign
+
+    with held():
+        from twin.campaign.runner import run_campaign
     from twin.campaign.spec import CampaignError, load_campaign
 
     if args.workers < 1:
@@ -251,6 +258,8 @@ def main(argv: list[str] | None = None) -> int:
     (``AUV_TWIN_DEBUG=1``).
     """
     try:
+        if _startup.pending:  # Ctrl-C while the command line itself was loading
+            raise KeyboardInterrupt
         args = build_parser().parse_args(argv)
         return int(args.func(args))
     except KeyboardInterrupt:
