@@ -56,9 +56,10 @@ def spec_parts(spec: CampaignSpec) -> dict[str, Any]:
     }
 
 
-def spec_fingerprint(spec: CampaignSpec) -> str:
-    """The hash of the resolved spec: its parts and the ids of its runs."""
-    return fingerprint({"parts": spec_parts(spec), "runs": [r.run_id for r in spec.runs]})
+def spec_fingerprint(spec: CampaignSpec, parts: Mapping[str, Any] | None = None) -> str:
+    """The hash of the resolved spec: its parts (``spec_parts``) and the ids of its runs."""
+    parts = spec_parts(spec) if parts is None else parts
+    return fingerprint({"parts": parts, "runs": [r.run_id for r in spec.runs]})
 
 
 def read_record(out: Path) -> dict[str, Any] | None:
@@ -122,7 +123,8 @@ def check_spec(spec: CampaignSpec, out: Path) -> dict[str, Any] | None:
 
 def write_record(spec: CampaignSpec, out: Path, old: Mapping[str, Any] | None) -> dict[str, Any]:
     """Write ``campaign.json`` for ``spec`` (the growth history kept); the record."""
-    fp = spec_fingerprint(spec)
+    parts = spec_parts(spec)
+    fp = spec_fingerprint(spec, parts)
     prov = provenance(fingerprint=fp)
     history = list(old.get("history", [])) if old else []
     if not history or history[-1].get("fingerprint") != fp:
@@ -139,7 +141,7 @@ def write_record(spec: CampaignSpec, out: Path, old: Mapping[str, Any] | None) -
         "seeds": list(spec.seeds),
         "axes": {a.name: list(a.values) for a in spec.axes},
         "combine": spec.combine,
-        "parts": spec_parts(spec),
+        "parts": parts,
         "provenance": prov,
         "history": history,
         "run_ids": [r.run_id for r in spec.runs],

@@ -29,7 +29,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from twin.record.provenance import parquet_metadata
+from twin.record.provenance import PARQUET_KEY, made_by, parquet_metadata
 
 #: Where row files that cannot be read are set aside (their runs are run again on resume).
 CORRUPT = "corrupt"
@@ -188,7 +188,8 @@ def load_campaign_results(
     the folder's own experiment (the run ids in ``campaign.json``) are kept. What was left out is
     in ``df.attrs``: ``"ignored"`` (the number of row files of other runs) and ``"corrupt"``
     (the names of unreadable row files, set aside in ``DIR/corrupt/``); ``say`` gets one line
-    for each.
+    for each. ``df.attrs["made_by"]`` counts the rows by the code and packages that made them
+    (:func:`twin.record.provenance.made_by`, from each row file's metadata).
     """
     from twin.campaign.folder import read_record
 
@@ -198,6 +199,7 @@ def load_campaign_results(
     d = out / "runs"
     files = sorted(d.glob("*.parquet")) if d.is_dir() else []
     corrupt: list[str] = []
+    made: dict[str, int] = {}
     ignored = 0
     if files:
         if wanted is not None:
@@ -212,6 +214,11 @@ def load_campaign_results(
             except (OSError, pa.ArrowException):
                 corrupt.append(f.name)
                 set_aside(out, f, say)
+        # What made the rows, from each file's metadata as it is read: {made_by line: rows}.
+        for t in tables:
+            raw = (t.schema.metadata or {}).get(PARQUET_KEY)
+            key = made_by(json.loads(raw) if raw else None)
+            made[key] = made.get(key, 0) + 1
         df = _concat_tables(tables) if tables else pd.DataFrame(columns=_EMPTY)
     elif (out / "results.parquet").is_file():
         df = pd.read_parquet(out / "results.parquet")
@@ -219,6 +226,7 @@ def load_campaign_results(
             keep = df["run_id"].isin(wanted)
             ignored = int((~keep).sum())
             df = df[keep]
+        made[made_by(None)] = len(df)  # one table: the rows' own provenance is not kept
     else:
         df = pd.DataFrame(columns=_EMPTY)
     if ignored and say is not None:
@@ -227,6 +235,7 @@ def load_campaign_results(
         df = df.sort_values("index", kind="stable").reset_index(drop=True)
     df.attrs["ignored"] = ignored
     df.attrs["corrupt"] = corrupt
+    df.attrs["made_by"] = made
     df.attrs["record"] = record
     return df
 
@@ -252,14 +261,17 @@ def load_timeseries(out: str | Path) -> pd.DataFrame:
 
 def consolidate(
     out: Path, block: Mapping[str, Any] | None = None, say: Callable[[str], None] | None = None
-) -> Path:
-    """Rewrite ``results.parquet`` from the experiment's rows (all columns, union of schemas)."""
+) -> pd.DataFrame:
+    """Rewrite ``results.parquet`` from the experiment's rows (all columns, union of schemas).
+
+    Returns:
+        The rows written (what :func:`load_campaign_results` gives).
+    """
     df = load_campaign_results(out, say=say)
-    df.attrs = {}
-    path = out / "results.parquet"
-    table = _with_provenance(pa.Table.from_pandas(df, preserve_index=False), block)
-    _write_atomic(table, path)
-    return path
+    df.attrs = {}  # what was ignored is said, not stored in the table's pandas metadata
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    _write_atomic(_with_provenance(table, block), out / "results.parquet")
+    return df
 
 
 def row_provenance(path: str | Path) -> dict[str, Any] | None:

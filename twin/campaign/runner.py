@@ -36,7 +36,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
-from twin.campaign.folder import check_spec, locked, spec_fingerprint, write_record
+from twin.campaign.folder import check_spec, locked, write_record
 from twin.campaign.results import (
     consolidate,
     finished_ids,
@@ -259,9 +259,9 @@ def _run_locked(
                 ["--ray: Ray is not installed; install it with: pip install 'auv-twin[ray]'"],
                 spec.source,
             ) from None
-    same_layout = old is not None and old.get("fingerprint") == spec_fingerprint(spec)
     record_ = write_record(spec, out, old)
     fp = record_["fingerprint"]
+    same_layout = old is not None and old.get("fingerprint") == fp
     done = finished_ids(out, say) & {r.run_id for r in spec.runs}
     todo = [r for r in spec.runs if r.run_id not in done]
     if done:
@@ -306,20 +306,17 @@ def _run_locked(
     finally:
         if bar is not None:
             bar.close()
-        consolidate(out, record_["provenance"], say)
-    _warn_unmatched(spec, out, say)
+        rows = consolidate(out, record_["provenance"], say)
+    _warn_unmatched(spec, rows, say)
     if spec.keep_recordings:
         _record_worst(spec, out, job, say)
     return counts
 
 
-def _warn_unmatched(spec: CampaignSpec, out: Path, say: Callable[[str], None]) -> None:
-    """Say which kept-metric patterns matched no metric of any finished run."""
+def _warn_unmatched(spec: CampaignSpec, df: Any, say: Callable[[str], None]) -> None:
+    """Say which kept-metric patterns matched no metric of any finished run (``df``: the rows)."""
     import fnmatch
 
-    from twin.campaign.results import load_campaign_results
-
-    df = load_campaign_results(out)
     if df.empty or not (df["status"] == "ok").any():
         return
     keys = [c.removeprefix("metric.") for c in df.columns if c.startswith("metric.")]

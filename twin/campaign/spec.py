@@ -44,6 +44,7 @@ import json
 import math
 import re
 import tomllib
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -429,8 +430,8 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
             )
             continue
         values = _axis_values(i, t, rng, errs)
-        labels = [param_value(v) for v in values]
-        dup = sorted({_show(v) for v in labels if labels.count(v) > 1})
+        counts = Counter(param_value(v) for v in values)
+        dup = sorted(_show(v) for v, n in counts.items() if n > 1)
         if dup and combine == "grid":  # zipped axes may repeat a value (in other pairs)
             errs.append(
                 f"sweep[{i}].values: {', '.join(dup)} given more than once; allowed: distinct "

@@ -149,6 +149,19 @@ def read_parquet_provenance(path: str | Path) -> dict[str, Any] | None:
     return json.loads(raw) if raw else None
 
 
+def made_by(block: Mapping[str, Any] | None) -> str:
+    """One line for the code and packages that made an output (equal lines: the same code)."""
+    if block is None:
+        return "no provenance (a row from before auv-twin recorded it, or from results.parquet)"
+    commit = block.get("commit")
+    code = (
+        f"commit {commit[:12]}{' (dirty)' if block.get('dirty') else ''}" if commit else "no commit"
+    )
+    packages = ", ".join(f"{k} {v}" for k, v in sorted((block.get("packages") or {}).items()))
+    light = f"light model {block.get('light_model')}"
+    return f"auv-twin {block.get('auv_twin')}, {code}, {light}, {packages}"
+
+
 def describe(block: Mapping[str, Any]) -> list[str]:
     """The block as short lines for a report's header or a summary."""
     commit = block.get("commit")

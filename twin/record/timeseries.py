@@ -94,20 +94,10 @@ class TimeSeriesWriter:
                 "speed_through_water_mps": float(truth.speed_through_water_mps),
             }
         )
+        # The scorer's sample: each filter's estimate and its errors, computed once a step.
         for name, sample in self.scorer.last_samples.items():
-            nav = sim.navigators[name]
-            est = nav.estimate()
-            east, north = nav.local_en(est)
             self._filters.append(
-                {
-                    "t": truth.t,
-                    "variant": name,
-                    "east_m": float(east),
-                    "north_m": float(north),
-                    "roll_deg": math.degrees(est.roll),
-                    "pitch_deg": math.degrees(est.pitch),
-                    **{k: float(v) for k, v in sample.items()},
-                }
+                {"t": truth.t, "variant": name, **{k: float(v) for k, v in sample.items()}}
             )
 
     def _reading(self, reading: Any) -> None:

@@ -62,6 +62,10 @@ class VariantScore:
         self.pos_err.append(e_pos)
         self.nees.append(nees)
         return {
+            "east_m": east,
+            "north_m": north,
+            "roll_deg": math.degrees(est.roll),
+            "pitch_deg": math.degrees(est.pitch),
             "heading_deg": est.heading_deg,
             "heading_err_deg": e_h,
             "heading_sigma_deg": est.heading_sigma_deg,
