@@ -343,6 +343,11 @@ def test_render_writes_float_images_colour_bars_and_the_sun(tmp_path: Path, caps
     assert s0.dtype == np.float32 and s0.shape == z["s0"].shape
     np.testing.assert_array_equal(s0, z["s0"])  # the same seeded frame, losslessly
     assert float(np.nanmax(z["dop"])) <= 1.0 and z["aop"].dtype == np.float32
+    side = json.loads((tmp_path / "t" / "default_t1.json").read_text())
+    assert side["provenance"]["seed"] == 0 and side["provenance"]["fingerprint"]
+    in_npz = json.loads(str(z["provenance"]))
+    assert (in_npz["fingerprint"], in_npz["seed"]) == (side["provenance"]["fingerprint"], 0)
+    assert "default_t1_s0.tiff" in side["files"]
     panel = tmp_path / "n" / "default_t1_panel.png"
     assert panel.is_file() and (tmp_path / "n" / "default_t1_panel.svg").is_file()
     # A fixed scale: the 8-bit intensity saturates at the same DN in both renders.

@@ -8,15 +8,18 @@ Writes, in ``OUT/``:
 * with ``--float npz`` or ``--float tiff``: the float images (S0, AoP in radians, DoP; 32-bit),
   as one ``<stem>.npz`` or three ``<stem>_{s0,aop,dop}.tiff``;
 
-and prints the vehicle's state and the sun's elevation and azimuth, saying so when the sun is
-below the horizon. ``--s0-max DN`` fixes the intensity scale (the 8-bit image and the panel's
-colour bar), so renders at several instants or depths compare; by default each render scales to
-its own 99.5th percentile.
+and ``<stem>.json``: the provenance block (:mod:`twin.record.provenance`: code, packages, the
+scenario's fingerprint, the seed, the date) with the instant, the sun and the files written (the
+``.npz`` holds the block too). It prints the vehicle's state and the sun's elevation and azimuth,
+saying so when the sun is below the horizon. ``--s0-max DN`` fixes the intensity scale (the
+8-bit image and the panel's colour bar), so renders at several instants or depths compare; by
+default each render scales to its own 99.5th percentile.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from pathlib import Path
@@ -68,6 +71,7 @@ def _error(text: str) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from twin.app.interrupts import held
+    from twin.record.provenance import fingerprint, provenance
 
     with held():  # the heavy imports: a Ctrl-C here is held, then raised
         from sensors.registry import sensor_class
@@ -124,10 +128,20 @@ def cmd_render(args: argparse.Namespace) -> int:
         f"{sc.name}, t = {args.at:g} s ({world.plant.utc:%Y-%m-%d %H:%M:%S} UTC), depth "
         f"{tr.depth_m:.1f} m, sun elevation {el:.1f}°, azimuth {az:.1f}°"
     )
+    prov = provenance(fingerprint=fingerprint(sc.to_dict()), seed=world.seed)
     try:
         written = write_images(pol, out, stem, title, s0_max=args.s0_max)
         if args.float_format:
-            written += write_float(pol, out, stem, args.float_format)
+            written += write_float(pol, out, stem, args.float_format, prov)
+        # What every file beside it came from: the provenance block and the instant rendered.
+        side = out / f"{stem}.json"
+        side.write_text(json.dumps({
+            "provenance": prov, "scenario": sc.name, "at_s": args.at,
+            "utc": f"{world.plant.utc:%Y-%m-%dT%H:%M:%S.%fZ}", "depth_m": tr.depth_m,
+            "sun_elevation_deg": el, "sun_azimuth_deg": az, "s0_max_dn": args.s0_max,
+            "files": [p.name for p in written],
+        }, indent=2) + "\n")  # fmt: skip
+        written.append(side)
     except OSError as exc:
         print(f"error: writing the images to {out}: {exc.strerror or exc}", file=sys.stderr)
         return 1
@@ -189,7 +203,7 @@ def write_images(pol, out: Path, stem: str, title: str, s0_max: float | None) ->
     return written
 
 
-def write_float(pol, out: Path, stem: str, fmt: str) -> list[Path]:
+def write_float(pol, out: Path, stem: str, fmt: str, prov: dict | None = None) -> list[Path]:
     """S0 (DN), AoP (rad) and DoP as 32-bit floats: one .npz, or a TIFF each."""
     from twin.record.images import write_planes
 
@@ -200,6 +214,7 @@ def write_float(pol, out: Path, stem: str, fmt: str) -> list[Path]:
     }
     if fmt == "npz":
         path = out / f"{stem}.npz"
-        np.savez_compressed(path, **planes, units=np.array(["DN", "rad", "1"]))
+        extra = {"provenance": np.array(json.dumps(prov))} if prov is not None else {}
+        np.savez_compressed(path, **planes, units=np.array(["DN", "rad", "1"]), **extra)
         return [path]
     return write_planes(planes, out, stem, "tiff")
