@@ -71,6 +71,7 @@ from scenarios.schema import (
     Water,
     WaypointLeg,
 )
+from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 
 T = TypeVar("T")
 
@@ -200,6 +201,8 @@ DURATION_S = Range(0.0, 86400.0, lo_open=True)
 DENSITY_KG_M3 = Range(990.0, 1050.0)
 TEMPERATURE_C = Range(-2.0, 40.0)
 SALINITY_PSU = Range(0.0, 42.0)
+UNIT_INTERVAL = Range(0.0, 1.0)
+DEPOLARIZATION_RATIO = Range(0.0, 0.5, hi_open=True)
 CURRENT_SPEED_MPS = Range(0.0, 3.0)
 GUST_SIGMA_MPS = Range(0.0, 1.0)
 VEHICLE_SPEED_MPS = Range(0.0, 3.0)  # the initial speed: may be 0 (starting at rest)
@@ -639,11 +642,16 @@ def _water(t: _Table | None) -> Water | None:
     jerlov = t.string("jerlov_type", choices=JERLOV_TYPES, default="II")
     seabed_given = "seabed_depth_m" in t.data
     seabed = t.number("seabed_depth_m", POSITIVE, default=None)
+    peak_p = t.number("particle_peak_polarization", UNIT_INTERVAL, default=PARTICLE_DOP_MAX)
+    delta = t.number(
+        "depolarization_ratio", DEPOLARIZATION_RATIO, default=WATER_DEPOLARIZATION_RATIO
+    )
     t.report.seabed_m = seabed
     t.finish()
-    if not _all_set(density, temperature, salinity, jerlov) or (seabed_given and seabed is None):
+    values = (density, temperature, salinity, jerlov, peak_p, delta)
+    if not _all_set(*values) or (seabed_given and seabed is None):
         return None
-    return Water(density, temperature, salinity, jerlov, seabed)
+    return Water(density, temperature, salinity, jerlov, seabed, peak_p, delta)
 
 
 _CURRENT_KEYS = {

@@ -22,6 +22,7 @@ from typing import Any, Literal, TypeAlias
 
 # The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
 # defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
+from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 from twin.core.mission import (
     MISSION_KINDS,
     HeadingLeg,
@@ -99,7 +100,10 @@ class Water:
     """The water body.
 
     ``seabed_depth_m`` is None for bottomless open sea, and always in the tank, whose floor is part
-    of the scene at :data:`TANK_FLOOR_DEPTH_M`.
+    of the scene at :data:`TANK_FLOOR_DEPTH_M`. ``particle_peak_polarization`` (P, the particles'
+    −m12/m11 near 90°; measured 0.6–0.9 over diverse natural waters) and
+    ``depolarization_ratio`` (δ of the water molecules; 0.039 fresh, 0.0425–0.046 at S = 35) shape
+    the scattering phase matrix; their defaults and sources: :mod:`sensors.polarimeter.scattering`.
     """
 
     density_kg_m3: float = 1025.0
@@ -107,6 +111,8 @@ class Water:
     salinity_psu: float = 35.0
     jerlov_type: JerlovType = "II"
     seabed_depth_m: float | None = None
+    particle_peak_polarization: float = PARTICLE_DOP_MAX
+    depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO
 
 
 @dataclass(frozen=True, slots=True)

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.rt.kernel import lut_at, meridian
+from sensors.polarimeter.rt.kernel import _reflect_from_below, lut_at, meridian
 
 
 @njit(cache=True, inline="always")
@@ -69,11 +69,199 @@ def _atan2_pos(y, x):
     return a
 
 
+@njit(cache=True, inline="always")
+def _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts):
+    """The refracted beam scattered once into look direction v (meridian reference of d = −v).
+
+    Magnitude (water.py eq. 2): β e^(−min(a1, a2)) (1 − e^(−x)) E μ_s / (c |μ_s − v_z|) looking
+    up; looking down (v_z <= 0) the line of sight is infinite at any depth, so
+    β e^(−a1) E μ_s / (c (μ_s − v_z)) exactly (the clamped v_z of the upward branch gave
+    1 − e^(−x) < 1 there within ~10 µm of the surface).
+    """
+    mx, my, mz = meridian(-vx, -vy, -vz)
+    mu_s = max(sz, 1e-3)
+    a1 = cz / mu_s
+    ct = vx * sx + vy * sy + vz * sz
+    ct = min(max(ct, -1.0), 1.0)
+    # e1 ⟂ d0 = −ŝ towards d = −v: (−v + ct ŝ)/sin Θ.
+    e1x = -vx + ct * sx
+    e1y = -vy + ct * sy
+    e1z = -vz + ct * sz
+    st = math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    if st > 1e-9:
+        e1x /= st
+        e1y /= st
+        e1z /= st
+    else:
+        e1x, e1y, e1z = r0x, r0y, r0z
+        st = 0.0
+    # χ₁ from r0 to e1 about d0 = −ŝ.
+    c1 = r0x * e1x + r0y * e1y + r0z * e1z
+    s1 = -((r0y * e1z - r0z * e1y) * sx + (r0z * e1x - r0x * e1z) * sy
+           + (r0x * e1y - r0y * e1x) * sz)  # fmt: skip
+    q1 = (c1 * c1 - s1 * s1) * beam_q
+    u1 = -2.0 * c1 * s1 * beam_q
+    beta = lut_at(luts, 0, ct)
+    m12 = lut_at(luts, 1, ct)
+    m22 = lut_at(luts, 2, ct)
+    m33 = lut_at(luts, 3, ct)
+    oi = 1.0 + m12 * q1
+    oq = m12 + m22 * q1
+    ou = m33 * u1
+    # e2 = cos Θ e1 − sin Θ d0 = cos Θ e1 + sin Θ ŝ; χ₂ from e2 to m about d = −v.
+    e2x = ct * e1x + st * sx
+    e2y = ct * e1y + st * sy
+    e2z = ct * e1z + st * sz
+    c2 = e2x * mx + e2y * my + e2z * mz
+    s2 = -((e2y * mz - e2z * my) * vx + (e2z * mx - e2x * mz) * vy
+           + (e2x * my - e2y * mx) * vz)  # fmt: skip
+    n2 = c2 * c2 + s2 * s2
+    if n2 > 0.0:
+        cc = (c2 * c2 - s2 * s2) / n2
+        ss = 2.0 * c2 * s2 / n2
+    else:
+        cc, ss = 1.0, 0.0
+    if vz > 0.0:
+        a2 = cz / vz
+        dm = max(abs(mu_s - vz), 1e-9)
+        xx = cz * dm / (mu_s * vz)
+        g = math.exp(-min(a1, a2)) * (-math.expm1(-xx)) / dm
+    else:
+        g = math.exp(-a1) / (mu_s - vz)
+    lss = beta * g * e_sun * mu_s / c
+    return lss * oi, lss * (cc * oq + ss * ou), lss * (-ss * oq + cc * ou)
+
+
+@njit(cache=True, inline="always")
+def _lookup(grid, t_cos, cz_t, phi, dphi):
+    """Bilinear (look-zenith row by cos θ, folded azimuth φ) in a padded frame grid."""
+    r, fr = _row(cz_t, t_cos)
+    p = phi / dphi + 0.5
+    jc = int(p)
+    if jc >= grid.shape[1] - 1:
+        jc = grid.shape[1] - 2
+    fp = p - jc
+    w00 = (1.0 - fr) * (1.0 - fp)
+    w01 = (1.0 - fr) * fp
+    w10 = fr * (1.0 - fp)
+    w11 = fr * fp
+    i = w00 * grid[r, jc, 0] + w01 * grid[r, jc + 1, 0] + w10 * grid[r + 1, jc, 0]
+    i += w11 * grid[r + 1, jc + 1, 0]
+    q = w00 * grid[r, jc, 1] + w01 * grid[r, jc + 1, 1] + w10 * grid[r + 1, jc, 1]
+    q += w11 * grid[r + 1, jc + 1, 1]
+    u = w00 * grid[r, jc, 2] + w01 * grid[r, jc + 1, 2] + w10 * grid[r + 1, jc, 2]
+    u += w11 * grid[r + 1, jc + 1, 2]
+    return i, q, u
+
+
+@njit(cache=True, inline="always")
+def aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom):
+    """The sun's aureole (tapered, :mod:`sensors.polarimeter.rt.decompose`) in look direction v.
+
+    ``agrid`` (n_rows, n_ω + 2, 3): rows at ψ = ``apsi`` (0, the bin centres, the last edge where
+    the taper is 0), columns at position angle ω = (j − ½) ``dom`` about the sun from its upward
+    side, mirrored at 0 and π. Linear in ψ, linear in ω; U's sign follows the mirror.
+    """
+    cpsi = vx * sx + vy * sy + vz * sz
+    n = apsi.shape[0]
+    if n < 2 or cpsi <= math.cos(apsi[n - 1]):
+        return 0.0, 0.0, 0.0
+    dx = vx - sx
+    dy = vy - sy
+    dz = vz - sz
+    psi = 2.0 * math.asin(min(0.5 * math.sqrt(dx * dx + dy * dy + dz * dz), 1.0))
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if psi >= apsi[mid]:
+            lo = mid
+        else:
+            hi = mid
+    fr = (psi - apsi[lo]) / (apsi[lo + 1] - apsi[lo])
+    # ω: from e_up = (ẑ − cos θ_s ŝ)/sin θ_s towards the side axis (−sin φ_s, cos φ_s, 0).
+    hs = math.sqrt(sx * sx + sy * sy)
+    up = vz * hs - sz * (vx * cphi + vy * sphi)
+    side = -vx * sphi + vy * cphi
+    sign = 1.0
+    if side < 0.0:
+        side = -side
+        sign = -1.0
+    om = _atan2_pos(side, up)
+    p = om / dom + 0.5
+    jc = int(p)
+    if jc >= agrid.shape[1] - 1:
+        jc = agrid.shape[1] - 2
+    fp = p - jc
+    w00 = (1.0 - fr) * (1.0 - fp)
+    w01 = (1.0 - fr) * fp
+    w10 = fr * (1.0 - fp)
+    w11 = fr * fp
+    r = lo
+    i = w00 * agrid[r, jc, 0] + w01 * agrid[r, jc + 1, 0] + w10 * agrid[r + 1, jc, 0]
+    i += w11 * agrid[r + 1, jc + 1, 0]
+    q = w00 * agrid[r, jc, 1] + w01 * agrid[r, jc + 1, 1] + w10 * agrid[r + 1, jc, 1]
+    q += w11 * agrid[r + 1, jc + 1, 1]
+    u = w00 * agrid[r, jc, 2] + w01 * agrid[r, jc + 1, 2] + w10 * agrid[r + 1, jc, 2]
+    u += w11 * agrid[r + 1, jc + 1, 2]
+    return i, q, sign * u
+
+
+@njit(cache=True, inline="always")
+def reflected_at(
+    vx, vy, vz, n_water, tau_c, up, t_out, dphi, cphi, sphi,
+    single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+):  # fmt: skip
+    """The upwelling light at the surface Fresnel-reflected into v, attenuated to the camera.
+
+    Inside Snell's window only (there the reflectance rises from 2 % to 1 at the edge, too fast
+    for the table's bins). The upwelling Stokes at the surface, in look direction
+    v' = (v_x, v_y, −v_z): ``up`` (the frame's scattered light at the surface, rows from the
+    window's edge to the nadir; the table's) plus, if ``single``, the sun beam scattered once
+    (:func:`_single` at c z = ``cz0`` = 0). Reflected with the reference's own
+    :func:`~sensors.polarimeter.rt.kernel._reflect_from_below`, turned into the meridian of the
+    reflected light, times exp(−c z / v_z).
+    """
+    px = vx * cphi + vy * sphi
+    py = -vx * sphi + vy * cphi
+    sign = 1.0
+    if py < 0.0:
+        py = -py
+        sign = -1.0
+    phi = _atan2_pos(py, px)
+    ui, uq, uu = _lookup(up, t_out, -vz, phi, dphi)
+    uu *= sign
+    if single:
+        si, sq, su = _single(vx, vy, -vz, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
+        ui += si
+        uq += sq
+        uu += su
+    # The upwelling light travels along d = −v' = (−v_x, −v_y, v_z), in its meridian reference.
+    dx, dy, dz = -vx, -vy, vz
+    rx, ry, rz = meridian(dx, dy, dz)
+    ni, nq, nu, _nv, ndz, nrx, nry, nrz, _esc = _reflect_from_below(
+        dx, dy, dz, rx, ry, rz, ui, uq, uu, 0.0, n_water
+    )
+    # Into the meridian of the reflected light (d = −v), as the reference's tallies score it.
+    mx, my, mz = meridian(dx, dy, ndz)
+    c1 = nrx * mx + nry * my + nrz * mz
+    s1 = (nry * mz - nrz * my) * dx + (nrz * mx - nrx * mz) * dy + (nrx * my - nry * mx) * ndz
+    nrm = c1 * c1 + s1 * s1
+    if nrm > 0.0:
+        c2 = (c1 * c1 - s1 * s1) / nrm
+        s2 = 2.0 * c1 * s1 / nrm
+    else:
+        c2, s2 = 1.0, 0.0
+    t = math.exp(-tau_c / max(vz, 1e-6))
+    return t * ni, t * (c2 * nq + s2 * nu), t * (-s2 * nq + c2 * nu)
+
+
 @njit(cache=True, error_model="numpy", fastmath=True)
 def scatter_pixels(
     x, y, z, out,
     single, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
     has_field, f_in, t_in, f_out, t_out, cos_c_frame, cos_c_table, dphi, cphi, sphi,
+    agrid, apsi, dom, up, n_water,
 ):  # fmt: skip
     """Fill ``out[0..2, i]`` with the scattered Stokes of look direction (x, y, z)[i] (ENU).
 
@@ -82,84 +270,37 @@ def scatter_pixels(
     towards the refracted sun); e_sun (the beam's normal irradiance below the surface); beam_q
     (its Q/I relative to its meridian, Fresnel: > 0); r0x, r0y, r0z (the beam's meridian
     reference, light direction −ŝ); luts ((4, K) β, m12, m22, m33 against u = sin(Θ/2)); has_field
-    (add the table's light); f_in, t_in, f_out, t_out (the frame field's padded grids and the
-    cosines of their look zeniths, descending); cos_c_frame, cos_c_table (cos of Snell's window
-    edge in this water and in the table's); dphi (the table's azimuth bin width); cphi, sphi (the
-    sun's azimuth: the table's φ = 0).
+    (add the table's light); f_in, t_in, f_out, t_out (the frame field's padded grids of the
+    table's remainder and the cosines of their look zeniths, descending); cos_c_frame,
+    cos_c_table (cos of Snell's window edge in this water and in the table's); dphi (the table's
+    azimuth bin width); cphi, sphi (the sun's azimuth: the table's φ = 0); agrid, apsi, dom (the
+    sun's aureole, :func:`aureole_at`; one row: none); up (the upwelling light at the surface for
+    :func:`reflected_at`, the flat sea's share; one row: none); n_water (this water's index).
     """
     m = x.shape[0]
-    mu_s = max(sz, 1e-3)
-    a1 = cz / mu_s
+    do_refl = has_field and up.shape[0] > 1
+    do_aur = has_field and apsi.shape[0] > 1
     for i in range(m):
         vx = float(x[i])
         vy = float(y[i])
         vz = float(z[i])
-        mx, my, mz = meridian(-vx, -vy, -vz)  # of the light's direction d = −v
         si = 0.0
         sq = 0.0
         su = 0.0
         if single:
-            ct = vx * sx + vy * sy + vz * sz
-            ct = min(max(ct, -1.0), 1.0)
-            # e1 ⟂ d0 = −ŝ towards d = −v: (−v + ct ŝ)/sin Θ.
-            e1x = -vx + ct * sx
-            e1y = -vy + ct * sy
-            e1z = -vz + ct * sz
-            st = math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
-            if st > 1e-9:
-                e1x /= st
-                e1y /= st
-                e1z /= st
-            else:
-                e1x, e1y, e1z = r0x, r0y, r0z
-                st = 0.0
-            # χ₁ from r0 to e1 about d0 = −ŝ.
-            c1 = r0x * e1x + r0y * e1y + r0z * e1z
-            s1 = -((r0y * e1z - r0z * e1y) * sx + (r0z * e1x - r0x * e1z) * sy
-                   + (r0x * e1y - r0y * e1x) * sz)  # fmt: skip
-            q1 = (c1 * c1 - s1 * s1) * beam_q
-            u1 = -2.0 * c1 * s1 * beam_q
-            beta = lut_at(luts, 0, ct)
-            m12 = lut_at(luts, 1, ct)
-            m22 = lut_at(luts, 2, ct)
-            m33 = lut_at(luts, 3, ct)
-            oi = 1.0 + m12 * q1
-            oq = m12 + m22 * q1
-            ou = m33 * u1
-            # e2 = cos Θ e1 − sin Θ d0 = cos Θ e1 + sin Θ ŝ; χ₂ from e2 to m about d = −v.
-            e2x = ct * e1x + st * sx
-            e2y = ct * e1y + st * sy
-            e2z = ct * e1z + st * sz
-            c2 = e2x * mx + e2y * my + e2z * mz
-            s2 = -((e2y * mz - e2z * my) * vx + (e2z * mx - e2x * mz) * vy
-                   + (e2x * my - e2y * mx) * vz)  # fmt: skip
-            n2 = c2 * c2 + s2 * s2
-            if n2 > 0.0:
-                cc = (c2 * c2 - s2 * s2) / n2
-                ss = 2.0 * c2 * s2 / n2
-            else:
-                cc, ss = 1.0, 0.0
-            # Magnitude (water.py eq. 2): β e^(−min(a1, a2)) (1 − e^(−x)) E μ_s / (c |μ_s − v_z|).
-            vzp = max(vz, 1e-6)
-            a2 = cz / vzp
-            dm = max(abs(mu_s - vz), 1e-6)
-            xx = cz * dm / (mu_s * vzp)
-            g = math.exp(-min(a1, a2)) * (-math.expm1(-xx)) / dm
-            lss = beta * g * e_sun * mu_s / c
-            si = lss * oi
-            sq = lss * (cc * oq + ss * ou)
-            su = lss * (-ss * oq + cc * ou)
+            si, sq, su = _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
         if has_field:
             # Rows by cos θ (no acos); this water's window edge mapped onto the table's, linearly
             # in cos θ on either side (the indices differ by < 1 %).
-            if vz > cos_c_frame:
+            inside = vz > cos_c_frame
+            if inside:
                 cz_t = 1.0 - (1.0 - vz) * (1.0 - cos_c_table) / (1.0 - cos_c_frame)
                 grid = f_in
-                r, fr = _row(cz_t, t_in)
+                tc = t_in
             else:
                 cz_t = vz * cos_c_table / cos_c_frame if vz > 0.0 else vz
                 grid = f_out
-                r, fr = _row(cz_t, t_out)
+                tc = t_out
             # Azimuth from the sun, folded onto [0, π] (U changes sign under the mirror).
             px = vx * cphi + vy * sphi
             py = -vx * sphi + vy * cphi
@@ -168,21 +309,23 @@ def scatter_pixels(
                 py = -py
                 sign = -1.0
             phi = _atan2_pos(py, px)
-            p = phi / dphi + 0.5
-            jc = int(p)
-            if jc >= grid.shape[1] - 1:
-                jc = grid.shape[1] - 2
-            fp = p - jc
-            w00 = (1.0 - fr) * (1.0 - fp)
-            w01 = (1.0 - fr) * fp
-            w10 = fr * (1.0 - fp)
-            w11 = fr * fp
-            si += (w00 * grid[r, jc, 0] + w01 * grid[r, jc + 1, 0]
-                   + w10 * grid[r + 1, jc, 0] + w11 * grid[r + 1, jc + 1, 0])  # fmt: skip
-            sq += (w00 * grid[r, jc, 1] + w01 * grid[r, jc + 1, 1]
-                   + w10 * grid[r + 1, jc, 1] + w11 * grid[r + 1, jc + 1, 1])  # fmt: skip
-            su += sign * (w00 * grid[r, jc, 2] + w01 * grid[r, jc + 1, 2]
-                          + w10 * grid[r + 1, jc, 2] + w11 * grid[r + 1, jc + 1, 2])  # fmt: skip
+            ti, tq, tu = _lookup(grid, tc, cz_t, phi, dphi)
+            si += ti
+            sq += tq
+            su += sign * tu
+            if do_aur:
+                ai, aq, au = aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom)
+                si += ai
+                sq += aq
+                su += au
+            if do_refl and inside:
+                ri, rq, ru = reflected_at(
+                    vx, vy, vz, n_water, cz, up, t_out, dphi, cphi, sphi,
+                    single, 0.0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+                )  # fmt: skip
+                si += ri
+                sq += rq
+                su += ru
         out[0, i] = si
         out[1, i] = sq
         out[2, i] = su

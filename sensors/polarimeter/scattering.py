@@ -18,17 +18,25 @@ each element the β-weighted mean of the two components' normalised matrices:
   anisotropic water molecule (Hansen & Travis 1974, Space Sci. Rev. 16:527, eq. 2.15;
   Chandrasekhar 1950 §18): with Δ = (1 − δ)/(1 + δ/2), Δ' = (1 − 2δ)/(1 − δ),
   P11 = ¾Δ(1 + cos²Θ) + (1 − Δ), P12 = −¾Δ sin²Θ, P22 = ¾Δ(1 + cos²Θ), P33 = (3/2)Δ cos Θ,
-  P44 = (3/2)ΔΔ' cos Θ. δ = 0.09 (Morel 1974, "Optical properties of pure water and pure sea
-  water", in *Optical Aspects of Oceanography*): P11 ∝ 1 + 0.835 cos²Θ, the molecular phase
-  function :func:`molecular_phase` has always used, and DoP 0.835 at 90°.
+  P44 = (3/2)ΔΔ' cos Θ. δ = 0.044 for sea water of S = 35 (Hu, Zhang et al. 2019, Appl. Opt.
+  58(4):991, "Light scattering by pure water and seawater: the depolarization ratio and its
+  variation with salinity", read: pure water 0.039 ± 0.001, sea water 0.039 + a₁S with
+  a₁ = 1–2 × 10⁻⁴, so 0.0425–0.046 at S = 35; the twin takes a₁ = 1.5 × 10⁻⁴). Morel's (1974)
+  δ = 0.09, used here before, is the value that paper's introduction puts "at least ±50 %"
+  uncertain. δ is a water parameter (:attr:`~sensors.polarimeter.water.WaterOptics`; a
+  scenario's ``[water] depolarization_ratio``; 0.039 for fresh water).
 * **Particles**: the Fournier–Forand phase function (below), with the reduced Mueller matrix of
-  the Voss & Fry (1984, Appl. Opt. 23:4427) ocean average in the Rayleigh-like form that
-  Kattawar & Adams (1989, Limnol. Oceanogr. 34:1453) and later polarized ocean codes use:
-  m12 = −P sin²Θ/(1 + cos²Θ), m22 = 1, m33 = m44 = 2 cos Θ/(1 + cos²Θ), with the peak linear
-  polarization P = 0.8 near 90° [uncertain: Voss & Fry's figure is recalled, not re-read; their
-  measured m12 peaks between −0.7 and −0.9]. The form keeps m22 = 1 and m33 → 1 in the forward
-  direction, so the many small-angle scatterings by particles do not depolarize, as measured;
-  it is a physical Mueller matrix (m12² + m33² ≤ 1 for every Θ).
+  the Voss & Fry (1984, Appl. Opt. 23:4427) ocean measurements — Rayleigh-like, all off-diagonal
+  elements but m12 = m21 zero (their abstract, read) — in the form that Kattawar & Adams (1989,
+  Limnol. Oceanogr. 34:1453) and later polarized ocean codes use: m12 = −P sin²Θ/(1 + cos²Θ),
+  m22 = 1, m33 = m44 = 2 cos Θ/(1 + cos²Θ). The peak linear polarization P = −m12/m11 near 90°
+  is 0.75, the middle of the range "[0.6, 0.9]" that the particulate DoLP peak magnitudes of six
+  diverse natural waters span in "The Degree of Linear Polarization for Suspended Particle Fields
+  from Diverse Natural Waters", Front. Remote Sens. 2:735512 (2021), read (abstract; peaks at
+  90–95°); P = 0.6 and 0.9 are the ends a sensitivity study uses. (The value 0.8 used before was
+  recalled, not read.) P is a water parameter as δ is. The form keeps m22 = 1 and m33 → 1 in the
+  forward direction, so the many small-angle scatterings by particles do not depolarize, as
+  measured; it is a physical Mueller matrix (m12² + m33² ≤ 1 for every Θ).
 
 Circular polarization V is carried by the reference (total internal reflection at the surface
 turns linear into circular polarization) but never produced by scattering (m34 = 0 for both).
@@ -46,15 +54,21 @@ from scipy.optimize import brentq
 
 FloatArray = NDArray[np.floating]
 
-#: Depolarization ratio of sea water (Morel 1974): P11 ∝ 1 + 0.835 cos²Θ.
-WATER_DEPOLARIZATION_RATIO = 0.09
-#: Peak linear polarization of ocean particle scattering, Voss & Fry (1984) [uncertain].
-PARTICLE_DOP_MAX = 0.8
+#: Depolarization ratio of sea water, S = 35 (Hu, Zhang et al. 2019; module docstring).
+WATER_DEPOLARIZATION_RATIO = 0.044
+#: Its measured range at S = 35 (a₁ = 1–2e-4); Morel's (1974) older 0.09 is outside it.
+WATER_DEPOLARIZATION_RANGE = (0.0425, 0.046)
+#: Peak linear polarization of ocean particle scattering (Front. Remote Sens. 2021; docstring).
+PARTICLE_DOP_MAX = 0.75
+#: The measured range of the peak over diverse natural waters (same source).
+PARTICLE_DOP_MAX_RANGE = (0.6, 0.9)
 #: Fournier–Forand particle index relative to water (Mobley, Sundman & Boss 2002).
 FF_INDEX = 1.10
 
 
-def fournier_forand(cos_psi: ArrayLike, n_p: float = 1.10, mu: float = 3.5835) -> FloatArray:
+def fournier_forand(
+    cos_psi: ArrayLike, n_p: float = 1.10, mu: float = 3.5835, psi_min: float = 1e-9
+) -> FloatArray:
     """Fournier–Forand phase function p̃(ψ) (sr⁻¹, ∫ p̃ dΩ = 1).
 
     Fournier & Forand (1994) SPIE 2258:194, normalised as in Fournier & Jonasz (1999) SPIE
@@ -65,16 +79,22 @@ def fournier_forand(cos_psi: ArrayLike, n_p: float = 1.10, mu: float = 3.5835) -
             + (1 − δ₁₈₀^ν)(3 cos²ψ − 1) / (16π (δ₁₈₀ − 1) δ₁₈₀^ν)
 
     n_p is the particles' relative index, μ the Junge slope. The forward peak diverges
-    (integrably) as ψ → 0; ψ is clamped at 1e-4 rad. Near δ = 1 the bracket cancels to second
-    order (a removable singularity); δ is kept 1e-4 away from 1 there.
+    (integrably, as ψ^(μ−5)) as ψ → 0; ψ is floored at ``psi_min`` (default 1e-9 rad) only so
+    that ψ = 0 gives a finite number: the function is not renormalised, and the sampler
+    (:func:`inverse_cdf_cos`) integrates the peak below its grid analytically, so the particles
+    scatter exactly b_p. Near δ = 1 the bracket cancels to second order (a removable
+    singularity); δ is kept 1e-4 away from 1 there.
 
     Args:
         cos_psi: Cosines of the scattering angle.
         n_p: Particle refractive index relative to water (> 1).
         mu: Junge (hyperbolic) size-distribution slope, 3 < μ <= 5.
+        psi_min: The floor on ψ (radians) that keeps ψ = 0 finite.
     """
-    c = np.clip(np.asarray(cos_psi, dtype=np.float64), -1.0, math.cos(1e-4))
-    s2 = 0.5 * (1.0 - c)  # sin²(ψ/2)
+    c = np.clip(np.asarray(cos_psi, dtype=np.float64), -1.0, 1.0)
+    # sin²(ψ/2) from ψ itself near the peak (1 − cos ψ loses every digit below ~1e-8 rad).
+    psi = np.maximum(np.arccos(c), psi_min)
+    s2 = np.sin(0.5 * psi) ** 2
     k = 4.0 / (3.0 * (n_p - 1.0) ** 2)
     nu = 0.5 * (3.0 - mu)
     d = k * s2
@@ -108,15 +128,22 @@ def ff_slope_for_backscatter(backscatter_ratio: float, n_p: float = 1.10) -> flo
     return float(brentq(lambda m: ff_backscatter_fraction(n_p, m) - backscatter_ratio, 3.001, 5.0))
 
 
-def _molecular_delta() -> tuple[float, float]:
-    d = WATER_DEPOLARIZATION_RATIO
+def _molecular_delta(
+    depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO,
+) -> tuple[float, float]:
+    d = depolarization_ratio
     return (1.0 - d) / (1.0 + 0.5 * d), (1.0 - 2.0 * d) / (1.0 - d)
 
 
-def molecular_phase(cos_psi: ArrayLike) -> FloatArray:
-    """Pure-seawater phase function P11/(4π) = (¾Δ(1 + cos²ψ) + 1 − Δ)/(4π) (∝ 1 + 0.835 cos²ψ)."""
+def molecular_phase(
+    cos_psi: ArrayLike, depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO
+) -> FloatArray:
+    """Pure-seawater phase function P11/(4π) = (¾Δ(1 + cos²ψ) + 1 − Δ)/(4π).
+
+    ∝ 1 + cos²ψ (1 − δ)/(1 + δ): 1 + 0.916 cos²ψ at the default δ = 0.044.
+    """
     c = np.asarray(cos_psi)
-    big_d, _ = _molecular_delta()
+    big_d, _ = _molecular_delta(depolarization_ratio)
     return (0.75 * big_d * (1.0 + c * c) + (1.0 - big_d)) / (4.0 * math.pi)
 
 
@@ -131,6 +158,8 @@ class PhaseMatrix:
         b_molecular_per_m: b_w.
         b_particle_per_m: b_p.
         ff_slope: The Fournier–Forand Junge slope of the particles.
+        particle_dop_max: P of the particle matrix.
+        depolarization_ratio: δ of the water molecules.
     """
 
     u: FloatArray
@@ -142,6 +171,8 @@ class PhaseMatrix:
     b_molecular_per_m: float
     b_particle_per_m: float
     ff_slope: float
+    particle_dop_max: float = PARTICLE_DOP_MAX
+    depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO
 
     @property
     def b_per_m(self) -> float:
@@ -151,7 +182,7 @@ class PhaseMatrix:
     def beta_exact(self, cos_theta: ArrayLike) -> FloatArray:
         """β(Θ) from the formulas (not the table), m⁻¹ sr⁻¹."""
         c = np.asarray(cos_theta, dtype=np.float64)
-        out = self.b_molecular_per_m * molecular_phase(c)
+        out = self.b_molecular_per_m * molecular_phase(c, self.depolarization_ratio)
         if self.b_particle_per_m > 0:
             out = out + self.b_particle_per_m * fournier_forand(c, FF_INDEX, self.ff_slope)
         return out
@@ -171,6 +202,7 @@ def phase_matrix(
     particle_backscatter_ratio: float,
     size: int = 8192,
     particle_dop_max: float = PARTICLE_DOP_MAX,
+    depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO,
 ) -> PhaseMatrix:
     """Tabulate the mixture's β and normalised Mueller matrix (module docstring).
 
@@ -179,12 +211,17 @@ def phase_matrix(
         b_particle_per_m: Particle scattering b_p.
         particle_backscatter_ratio: B = b_bp/b_p, sets the Fournier–Forand slope.
         size: Table length (uniform in sin(Θ/2)).
-        particle_dop_max: P of the particle matrix.
+        particle_dop_max: P of the particle matrix, in [0, 1].
+        depolarization_ratio: δ of the water molecules, in [0, 0.5).
     """
+    if not (0.0 <= particle_dop_max <= 1.0):
+        raise ValueError(f"particle_dop_max must lie in [0, 1], got {particle_dop_max!r}")
+    if not (0.0 <= depolarization_ratio < 0.5):
+        raise ValueError(f"depolarization_ratio must lie in [0, 0.5), got {depolarization_ratio!r}")
     u = np.linspace(0.0, 1.0, size)
     c = 1.0 - 2.0 * u * u
     s2 = 1.0 - c * c
-    big_d, big_dp = _molecular_delta()
+    big_d, big_dp = _molecular_delta(depolarization_ratio)
     p11_m = 0.75 * big_d * (1.0 + c * c) + (1.0 - big_d)
     bm = b_molecular_per_m * p11_m / (4.0 * math.pi)
     mm = (
@@ -203,22 +240,55 @@ def phase_matrix(
     beta = bm + bp
     safe = np.where(beta > 0, beta, 1.0)
     el = [(bm * a + bp * b) / safe for a, b in zip(mm, mp, strict=True)]
-    return PhaseMatrix(u, beta, *el, float(b_molecular_per_m), float(b_particle_per_m), slope)
+    return PhaseMatrix(
+        u,
+        beta,
+        *el,
+        float(b_molecular_per_m),
+        float(b_particle_per_m),
+        slope,
+        float(particle_dop_max),
+        float(depolarization_ratio),
+    )
 
 
 def inverse_cdf_cos(pm: PhaseMatrix, size: int = 65537) -> FloatArray:
     """The cos Θ at uniformly spaced probabilities of the scattering-angle distribution.
 
-    The CDF is integrated on a grid fine enough for the forward peak (Θ log-spaced from 1e-6 rad);
-    sampling ``np.interp(ξ (K − 1), arange(K), table)`` draws Θ from p(Θ) to the table's
-    resolution (the largest step in probability is 1/(K − 1)).
+    The CDF is integrated on a grid fine enough for the forward peak (Θ log-spaced from
+    Θ₁ = 1e-6 rad), and the particles' peak below Θ₁ analytically: there the Fournier–Forand
+    function is the power law p ≈ A Θ^(μ−5), whose mass is 2π A Θ₁^(μ−3)/(μ − 3). The CDF is then
+    b times the normalised distribution to within the quadrature (:func:`scattered_fraction`
+    checks it), so the division by its end is a rounding step, not a renormalisation that would
+    scatter more than b. Sampling ``np.interp(ξ (K − 1), arange(K), table)`` draws Θ from p(Θ) to
+    the table's resolution (the largest step in probability is 1/(K − 1)).
     """
-    theta = np.concatenate([[0.0], np.geomspace(1e-6, math.pi, 200_000)])
-    c = np.cos(theta)
-    # The forward peak is steep: evaluate β from the formulas rather than from the table.
-    dens = pm.beta_exact(c) * np.sin(theta)
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(theta))])
-    cdf /= cdf[-1]
+    theta, cdf = _cdf(pm)
     prob = np.linspace(0.0, 1.0, size)
-    th = np.interp(prob, cdf, theta)
+    th = np.interp(prob, cdf / cdf[-1], theta)
     return np.cos(th)
+
+
+_THETA_1 = 1e-6
+
+
+def _cdf(pm: PhaseMatrix) -> tuple[FloatArray, FloatArray]:
+    """(Θ, ∫₀^Θ β dΩ / b): the cumulative scattered fraction, Θ from 0 to π."""
+    theta = np.concatenate([[0.0], np.geomspace(_THETA_1, math.pi, 200_000)])
+    c = np.cos(theta[1:])
+    dens = pm.beta_exact(c) * np.sin(theta[1:])
+    # Below Θ₁: the molecules' share is β(0) π Θ₁² (smooth); the particles' the power law's mass.
+    head = pm.b_molecular_per_m * float(molecular_phase(1.0, pm.depolarization_ratio))
+    head *= math.pi * _THETA_1**2
+    if pm.b_particle_per_m > 0:
+        p1 = float(fournier_forand(math.cos(_THETA_1), FF_INDEX, pm.ff_slope, psi_min=_THETA_1))
+        mu = pm.ff_slope
+        head += pm.b_particle_per_m * 2.0 * math.pi * p1 * _THETA_1**2 / (mu - 3.0)
+    body = 2.0 * math.pi * 0.5 * (dens[1:] + dens[:-1]) * np.diff(theta[1:])
+    cdf = np.concatenate([[0.0, head], head + np.cumsum(body)])
+    return theta, cdf / pm.b_per_m
+
+
+def scattered_fraction(pm: PhaseMatrix) -> float:
+    """∫ β dΩ / b over the sphere as the sampler integrates it (1 for an exact phase function)."""
+    return float(_cdf(pm)[1][-1])

@@ -20,6 +20,7 @@ from sensors.polarimeter import camera as camera_mod
 from sensors.polarimeter import caustics as caustics_mod
 from sensors.polarimeter import mosaic as mosaic_mod
 from sensors.polarimeter import particles as particles_mod
+from sensors.polarimeter import scattering as scattering_mod
 from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import water as water_mod
 from sensors.polarimeter.sky import SkySpec
@@ -35,6 +36,8 @@ class OpticsConfig:
         sky: Sky radiance and polarization model.
         jerlov_type: Jerlov water type (``water.JERLOV_TYPES``).
         turbidity: Multiplier on the type's particle scattering (1 = the type itself).
+        particle_dop_max: The particles' peak linear polarization P (scattering.py, sourced).
+        depolarization_ratio: The water molecules' depolarization ratio δ (scattering.py).
         salinity_psu: Salinity, for the refractive index (Quan & Fry).
         temperature_c: Water temperature, for the refractive index.
         wavelength_nm: The one wavelength of the optics.
@@ -56,6 +59,8 @@ class OpticsConfig:
     sky: SkySpec = field(default_factory=SkySpec)
     jerlov_type: str = "II"
     turbidity: float = 1.0
+    particle_dop_max: float = scattering_mod.PARTICLE_DOP_MAX
+    depolarization_ratio: float = scattering_mod.WATER_DEPOLARIZATION_RATIO
     salinity_psu: float = 35.0
     temperature_c: float = 15.0
     wavelength_nm: float = 500.0
@@ -88,9 +93,21 @@ class OpticsConfig:
                 f"OpticsConfig.flicker: {self.flicker!r}; allowed: {caustics_mod.FLICKER_MODELS}"
             )
         # The stage constructors validate the rest (turbidity, index ranges, wind speed).
-        water_mod.jerlov_water(self.jerlov_type, self.turbidity)
+        self.water()
         surface_mod.water_index(self.salinity_psu, self.temperature_c, self.wavelength_nm)
         surface_mod.cox_munk_variances(self.wind_speed_mps)
+
+    def water(self) -> water_mod.WaterOptics:
+        """The water's optical properties (type, turbidity, P and δ)."""
+        try:
+            return water_mod.jerlov_water(
+                self.jerlov_type,
+                self.turbidity,
+                particle_dop_max=self.particle_dop_max,
+                depolarization_ratio=self.depolarization_ratio,
+            )
+        except ValueError as e:
+            raise ValueError(f"OpticsConfig: {e}") from None
 
     @property
     def water_index(self) -> float:

@@ -152,6 +152,10 @@ class WaterOptics:
         wavelength_nm: The wavelength the coefficients are for.
         b_water_per_m: Molecular (pure seawater) share of b; clipped to b.
         particle_backscatter_ratio: b_bp/b_p of the particles (the Fournier–Forand B).
+        particle_dop_max: Peak linear polarization P of the particles' scattering, [0, 1]
+            (:data:`scattering.PARTICLE_DOP_MAX`, sourced there; measured 0.6–0.9).
+        depolarization_ratio: Depolarization ratio δ of the water molecules, [0, 0.5)
+            (:data:`scattering.WATER_DEPOLARIZATION_RATIO` for S = 35; 0.039 for fresh water).
     """
 
     a_per_m: float
@@ -161,6 +165,8 @@ class WaterOptics:
     wavelength_nm: float = 500.0
     b_water_per_m: float = B_SEAWATER_500NM
     particle_backscatter_ratio: float = PETZOLD_BACKSCATTER_RATIO
+    particle_dop_max: float = scattering.PARTICLE_DOP_MAX
+    depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO
 
     def __post_init__(self) -> None:
         for field_name, lo in (("a_per_m", 1e-6), ("kd_per_m", 1e-6)):
@@ -175,6 +181,18 @@ class WaterOptics:
             raise ValueError(
                 "particle_backscatter_ratio must lie in [0.001, 0.1] "
                 f"(b_bp/b_p of ocean particles), got {self.particle_backscatter_ratio!r}"
+            )
+        if not (math.isfinite(self.particle_dop_max) and 0.0 <= self.particle_dop_max <= 1.0):
+            raise ValueError(
+                f"particle_dop_max must lie in [0, 1] (the particles' peak linear polarization), "
+                f"got {self.particle_dop_max!r}"
+            )
+        if not (
+            math.isfinite(self.depolarization_ratio) and 0.0 <= self.depolarization_ratio < 0.5
+        ):
+            raise ValueError(
+                "depolarization_ratio must lie in [0, 0.5) (the water molecules' δ), "
+                f"got {self.depolarization_ratio!r}"
             )
 
     @property
@@ -200,7 +218,13 @@ class WaterOptics:
         )
 
 
-def jerlov_water(water_type: str, turbidity: float = 1.0) -> WaterOptics:
+def jerlov_water(
+    water_type: str,
+    turbidity: float = 1.0,
+    *,
+    particle_dop_max: float = scattering.PARTICLE_DOP_MAX,
+    depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO,
+) -> WaterOptics:
     """A Jerlov water type's optical properties at 500 nm, optionally made more or less turbid.
 
     ``turbidity`` scales the particulate scattering b_p = b − b_w (e.g. milk in a test tank is
@@ -210,6 +234,8 @@ def jerlov_water(water_type: str, turbidity: float = 1.0) -> WaterOptics:
     Args:
         water_type: One of :data:`JERLOV_TYPES` (case-insensitive).
         turbidity: Particulate-scattering multiplier, 0 (particle-free) to 1000.
+        particle_dop_max: The particles' peak linear polarization P (:class:`WaterOptics`).
+        depolarization_ratio: The water molecules' δ (:class:`WaterOptics`).
 
     Raises:
         ValueError: an unknown type (the message lists the allowed ones) or turbidity out of range.
@@ -227,7 +253,15 @@ def jerlov_water(water_type: str, turbidity: float = 1.0) -> WaterOptics:
         (e.a_per_m**2 + KIRK_G * e.a_per_m * b) / (e.a_per_m**2 + KIRK_G * e.a_per_m * e.b_per_m)
     )
     name = key if t == 1.0 else f"{key}×{t:g}"
-    return WaterOptics(e.a_per_m, b, kd, name=name, b_water_per_m=b_w)
+    return WaterOptics(
+        e.a_per_m,
+        b,
+        kd,
+        name=name,
+        b_water_per_m=b_w,
+        particle_dop_max=particle_dop_max,
+        depolarization_ratio=depolarization_ratio,
+    )
 
 
 def _check_depth(depth_m: float) -> float:
@@ -356,6 +390,8 @@ class WaterColumn:
             water.b_particle_per_m,
             water.particle_backscatter_ratio,
             size=self._LUT_SIZE,
+            particle_dop_max=water.particle_dop_max,
+            depolarization_ratio=water.depolarization_ratio,
         )
         pm = self.phase
         self._luts = np.ascontiguousarray(np.stack([pm.beta, pm.m12, pm.m22, pm.m33]))
@@ -543,6 +579,9 @@ class WaterColumn:
             f.outside if f is not None else empty, f.outside_cos if f is not None else empty_t,
             state.window_cos, math.cos(f.theta_c) if f is not None else 0.5,
             f.dphi if f is not None else 1.0, cphi, sphi,
+            f.aureole if f is not None else empty, f.aureole_psi if f is not None else empty_t[:1],
+            f.aureole_dom if f is not None else 1.0, f.up if f is not None else empty[:1],
+            self.n,
         )  # fmt: skip
 
     def scattered(

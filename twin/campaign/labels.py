@@ -130,7 +130,18 @@ FIELDS: tuple[Quantity, ...] = (
         "wind speed at 12.5 m that roughens the sea surface (Cox–Munk slopes)",
     ),
     Quantity("optics.wind_beaufort", "wind force", "Bft", "wind force on the Beaufort scale"),
-    Quantity("optics.turbidity", "turbidity", "", "the sky model's Linke turbidity"),
+    Quantity(
+        "optics.turbidity", "turbidity", "",
+        "multiplier on the water type's particle scattering (1 = the Jerlov type)",
+    ),
+    Quantity(
+        "water.particle_peak_polarization", "particle peak polarization P", "",
+        "the particles' −m12/m11 near 90° (measured 0.6–0.9)",
+    ),
+    Quantity(
+        "water.depolarization_ratio", "depolarization ratio δ", "",
+        "the water molecules' depolarization ratio (0.039 fresh, ~0.044 sea water)",
+    ),
     Quantity("start_utc", "start time", "UTC", "the trial's start, which sets the sun's place"),
     Quantity("duration_s", "duration", "s", "the trial's simulated length"),
     Quantity("elevation_deg", "solar elevation", "°", "the sun's elevation above the horizon"),

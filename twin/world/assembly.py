@@ -97,6 +97,8 @@ def optics_config(scenario: Scenario) -> OpticsConfig:
         sky=sky,
         jerlov_type=w.jerlov_type,
         turbidity=o.turbidity,
+        particle_dop_max=w.particle_peak_polarization,
+        depolarization_ratio=w.depolarization_ratio,
         salinity_psu=w.salinity_psu,
         temperature_c=w.temperature_c,
         wavelength_nm=o.wavelength_nm,

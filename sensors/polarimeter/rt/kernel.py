@@ -88,10 +88,16 @@ def _rotate(q: float, u: float, chi: float) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi):
+def _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi, aur, aur_cos, ssx, ssz):
     """Score one crossing of plane k by a photon ph = (d, r, I, Q, U).
 
-    Irradiance always; radiance (in the look direction's bin) only if the photon has scattered.
+    Irradiance always; radiance (in the look direction's bin) only if the photon has scattered
+    (class 0: once, never reflected; 1: more, never reflected; 2: reflected by the surface, tallied
+    with 1); and, for class 1 — never reflected, so that the surface's reflection, which the
+    renderer computes itself, is not in it — within the aureole's last edge of the look direction
+    towards the refracted sun (ssx, 0, ssz), into the aureole tally ``aur`` (P, n_ψ, n_ω, 3):
+    ψ bins with edges ``aur_cos`` (cos ψ, descending), position angle ω about the sun from its
+    upward side, folded onto [0, π] as the azimuth is (U changes sign).
     """
     dx, dy, dz, rx, ry, rz, si, sq, su = ph
     if dz < 0.0:
@@ -126,23 +132,48 @@ def _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi):
     u = -s2 * sq + c2 * su
     if mirror:
         u = -u
-    rad[cls, k, lo, pj, 0] += si
-    rad[cls, k, lo, pj, 1] += q
-    rad[cls, k, lo, pj, 2] += u
+    tally = min(cls, 1)
+    rad[tally, k, lo, pj, 0] += si
+    rad[tally, k, lo, pj, 1] += q
+    rad[tally, k, lo, pj, 2] += u
+    n_psi = aur_cos.shape[0] - 1
+    if cls == 1 and n_psi > 0:
+        cpsi = -(dx * ssx + dz * ssz)
+        if cpsi > aur_cos[n_psi]:
+            a = 0
+            b = n_psi
+            while b - a > 1:
+                mid = (a + b) // 2
+                if cpsi <= aur_cos[mid]:
+                    a = mid
+                else:
+                    b = mid
+            # ω from the sun's upward side e_up = (−cos θ_s, 0, sin θ_s), the side axis y.
+            up = -dx * -ssz + -dz * ssx
+            side = abs(dy)
+            n_om = aur.shape[2]
+            oj = int(math.atan2(side, up) / math.pi * n_om)
+            if oj >= n_om:
+                oj = n_om - 1
+            aur[k, a, oj, 0] += si
+            aur[k, a, oj, 1] += q
+            aur[k, a, oj, 2] += u
 
 
 @njit(cache=True)
-def _score_segment(rad, irr, planes, tau_a, tau_b, cls, ph, scattered, edges_cos, n_phi):
+def _score_segment(
+    rad, irr, planes, tau_a, tau_b, cls, ph, scattered, edges_cos, n_phi, aur, aur_cos, ssx, ssz
+):
     """Score every plane k >= 1 a flight from τ_a to τ_b crosses (plane 0 is the surface's)."""
     n = planes.shape[0]
     if tau_b > tau_a:
         for k in range(1, n):
             if tau_a < planes[k] <= tau_b:
-                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi)
+                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi, aur, aur_cos, ssx, ssz)
     else:
         for k in range(n - 1, 0, -1):
             if tau_b <= planes[k] < tau_a:
-                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi)
+                _score(rad, irr, k, cls, ph, scattered, edges_cos, n_phi, aur, aur_cos, ssx, ssz)
 
 
 @njit(cache=True, inline="always")
@@ -365,6 +396,8 @@ def transport(
     edges_cos,
     n_phi: int,
     rad,
+    aur,
+    aur_cos,
     irr,
     absorbed,
     totals,
@@ -404,6 +437,9 @@ def transport(
         edges_cos: (T + 1,) look-zenith bin edges as cos θ, from 1 down to −1.
         n_phi: Relative-azimuth bins over [0, π].
         rad: (2, P, T, n_phi, 3) radiance tallies Σ (I, Q, U) per class (meridian reference).
+        aur: (P, n_ψ, n_ω, 3) the multiply scattered light's tallies about the refracted sun
+            (:func:`_score`); source 1 passes ``aur_cos`` with one entry (no aureole).
+        aur_cos: (n_ψ + 1,) the aureole's ψ edges as cos ψ, from 1 down.
         irr: (P, 2) down-/up-going crossings Σ I.
         absorbed: (P,) absorption in the layer below each plane.
         totals: (4,) escaped through the surface, lost at the bottom, lost to roulette, gained
@@ -412,6 +448,8 @@ def transport(
             below the surface; the number of histories on a flat sea).
     """
     _seed(seed)
+    ssx = math.sin(sun_theta)
+    ssz = math.cos(sun_theta)
     n_planes = planes.shape[0]
     k_icdf = icdf_cos.shape[0] - 1
     n_cells = sky_cdf.shape[0] - 1
@@ -484,12 +522,29 @@ def transport(
         while True:
             s = -math.log(1.0 - np.random.random())
             tau_new = tau - dz * s
-            cls = 0 if (n_scat == 1 and not reflected) else 1
+            # 0: once scattered, never reflected; 1: more often, never reflected; 2: reflected
+            # by the surface (radiance tally 1 for both; the aureole tallies class 1 only).
+            cls = 0 if (n_scat == 1 and not reflected) else (2 if reflected else 1)
             ph = (dx, dy, dz, rx, ry, rz, si, sq, su)
             if tau_new <= 0.0:
                 # Up to the surface: score the planes above, then the surface plane itself.
-                _score_segment(rad, irr, planes, tau, 0.0, cls, ph, n_scat > 0, edges_cos, n_phi)
-                _score(rad, irr, 0, cls, ph, n_scat > 0, edges_cos, n_phi)
+                _score_segment(
+                    rad,
+                    irr,
+                    planes,
+                    tau,
+                    0.0,
+                    cls,
+                    ph,
+                    n_scat > 0,
+                    edges_cos,
+                    n_phi,
+                    aur,
+                    aur_cos,
+                    ssx,
+                    ssz,
+                )
+                _score(rad, irr, 0, cls, ph, n_scat > 0, edges_cos, n_phi, aur, aur_cos, ssx, ssz)
                 if slope_sigma > 0.0:
                     # Facet after facet until the reflected light heads down (a few rays
                     # reflected upwards by a steep facet meet the next wave).
@@ -512,18 +567,46 @@ def transport(
                 tau = 0.0
                 reflected = True
                 ph = (dx, dy, dz, rx, ry, rz, si, sq, su)
-                _score(rad, irr, 0, 1, ph, n_scat > 0, edges_cos, n_phi)
+                _score(rad, irr, 0, 2, ph, n_scat > 0, edges_cos, n_phi, aur, aur_cos, ssx, ssz)
                 alive, si, sq, su, sv = _roulette(si, sq, su, sv, start, totals)
                 if not alive:
                     break
                 continue
             if tau_new >= tau_bottom:
                 _score_segment(
-                    rad, irr, planes, tau, tau_bottom, cls, ph, n_scat > 0, edges_cos, n_phi
+                    rad,
+                    irr,
+                    planes,
+                    tau,
+                    tau_bottom,
+                    cls,
+                    ph,
+                    n_scat > 0,
+                    edges_cos,
+                    n_phi,
+                    aur,
+                    aur_cos,
+                    ssx,
+                    ssz,
                 )
                 totals[1] += si
                 break
-            _score_segment(rad, irr, planes, tau, tau_new, cls, ph, n_scat > 0, edges_cos, n_phi)
+            _score_segment(
+                rad,
+                irr,
+                planes,
+                tau,
+                tau_new,
+                cls,
+                ph,
+                n_scat > 0,
+                edges_cos,
+                n_phi,
+                aur,
+                aur_cos,
+                ssx,
+                ssz,
+            )
             tau = tau_new
             # ---- collision: absorption (implicit capture) --------------------------------------
             layer = n_planes - 1

@@ -54,6 +54,15 @@ DEFAULT_PLANES: tuple[float, ...] = (
 )  # fmt: skip
 
 
+#: Edges (degrees from the refracted sun) of the sun's aureole tally: fine where the multiply
+#: scattered light of a forward-peaked phase function changes fastest (rings of 0.25° next to the
+#: sun), to 30°; the renderer takes the aureole from here and only the rest from the coarse bins.
+AUREOLE_PSI_EDGES_DEG: tuple[float, ...] = (
+    0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 8.0, 10.0, 12.0, 14.0,
+    16.0, 18.0, 20.0, 23.0, 26.0, 30.0,
+)  # fmt: skip
+
+
 def look_zenith_edges_deg(n_water: float) -> FloatArray:
     """Look-zenith bin edges (degrees), with an edge exactly at Snell's window's θ_c.
 
@@ -75,6 +84,10 @@ class Grid:
         planes: Optical depths c z of the scoring planes (ascending, the first 0).
         theta_edges_deg: Look-zenith bin edges, 0 … 180°.
         n_phi: Relative-azimuth bins over [0°, 180°].
+        aureole_psi_edges_deg: The sun's aureole tally: bin edges in ψ, the angle of the look
+            direction from the refracted sun (0 … its last edge); empty: no aureole tally.
+        aureole_n_omega: Its bins in position angle about the sun, over [0°, 180°] from the
+            sun's upward side (folded as the azimuth is).
     """
 
     planes: tuple[float, ...] = DEFAULT_PLANES
@@ -82,6 +95,8 @@ class Grid:
         default_factory=lambda: tuple(look_zenith_edges_deg(1.34).tolist())
     )
     n_phi: int = 12
+    aureole_psi_edges_deg: tuple[float, ...] = AUREOLE_PSI_EDGES_DEG
+    aureole_n_omega: int = 6
 
     def __post_init__(self) -> None:
         p = np.asarray(self.planes, dtype=float)
@@ -92,6 +107,32 @@ class Grid:
             raise ValueError("theta_edges_deg must rise from 0 to 180")
         if not (1 <= self.n_phi <= 360):
             raise ValueError(f"n_phi must be in [1, 360], got {self.n_phi}")
+        a = np.asarray(self.aureole_psi_edges_deg, dtype=float)
+        if a.size and (a[0] != 0.0 or np.any(np.diff(a) <= 0) or a[-1] > 60.0):
+            raise ValueError("aureole_psi_edges_deg must rise from 0 to at most 60")
+        if not (1 <= self.aureole_n_omega <= 36):
+            raise ValueError(f"aureole_n_omega must be in [1, 36], got {self.aureole_n_omega}")
+
+    def aureole_solid_angle_mu(self, sun_zenith_water_rad: float, n: int = 48) -> FloatArray:
+        """(n_ψ, n_ω) ∫_bin |cos θ| dΩ of each folded aureole bin (both mirror halves).
+
+        Numerical (midpoint rule, ``n`` × ``n`` per bin): a bin about the sun is not a zenith
+        band, and |cos θ| varies over it.
+        """
+        edges = np.radians(np.asarray(self.aureole_psi_edges_deg, dtype=float))
+        n_om = self.aureole_n_omega
+        out = np.zeros((max(edges.size - 1, 0), n_om))
+        st, ct = math.sin(sun_zenith_water_rad), math.cos(sun_zenith_water_rad)
+        for i in range(edges.size - 1):
+            psi = edges[i] + (np.arange(n) + 0.5) * (edges[i + 1] - edges[i]) / n
+            for j in range(n_om):
+                om = (j + (np.arange(n) + 0.5) / n) * math.pi / n_om
+                p, o = np.meshgrid(psi, om, indexing="ij")
+                # v = cos ψ ŝ + sin ψ (cos ω e_up + sin ω ŷ), e_up = (−cos θ_s, 0, sin θ_s).
+                vz = np.cos(p) * ct + np.sin(p) * np.cos(o) * st
+                d_omega = np.sin(p) * (edges[i + 1] - edges[i]) / n * (math.pi / n_om / n)
+                out[i, j] = 2.0 * float(np.sum(np.abs(vz) * d_omega))
+        return out
 
     def solid_angle_mu(self) -> FloatArray:
         """(T, n_phi) ∫_bin |cos θ| dΩ of each folded bin (both mirror halves)."""
@@ -123,6 +164,10 @@ class LightField:
         single: (P, T, n_phi, 3) once-scattered, never-reflected Stokes radiance per bin.
         multiple: (P, T, n_phi, 3) all other scattered light (a surface reflection included).
         single_se, multiple_se: Their standard errors (batch means).
+        aureole: (P, n_ψ, n_ω, 3) the ``multiple`` light that the surface has not reflected,
+            tallied again about the refracted sun (:attr:`Grid.aureole_psi_edges_deg`; the sun
+            source only, else empty).
+        aureole_se: Its standard error.
         e_down, e_up: (P,) downwelling and upwelling plane irradiance (direct light included).
         e_down_se, e_up_se: Their standard errors.
         absorbed: (P,) absorption in the layer below each plane.
@@ -146,6 +191,8 @@ class LightField:
     multiple: FloatArray
     single_se: FloatArray
     multiple_se: FloatArray
+    aureole: FloatArray
+    aureole_se: FloatArray
     e_down: FloatArray
     e_up: FloatArray
     e_down_se: FloatArray
@@ -286,6 +333,8 @@ def solve(
     b_particle_per_m: float,
     particle_backscatter_ratio: float,
     *,
+    particle_dop_max: float = scattering.PARTICLE_DOP_MAX,
+    depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO,
     source: str = "sun",
     sun_zenith_air_deg: float = 30.0,
     sky: SkySpec | None = None,
@@ -304,6 +353,8 @@ def solve(
         b_molecular_per_m: Molecular scattering b_w.
         b_particle_per_m: Particle scattering b_p.
         particle_backscatter_ratio: b_bp/b_p (sets the Fournier–Forand slope).
+        particle_dop_max: The particles' peak linear polarization P.
+        depolarization_ratio: The water molecules' depolarization ratio δ.
         source: "sun" (the refracted beam of a sun at ``sun_zenith_air_deg``) or "sky" (the
             sky's light through the surface, the solar disc excluded).
         sun_zenith_air_deg: The sun's zenith angle in air, [0, 90).
@@ -336,7 +387,13 @@ def solve(
     b = b_molecular_per_m + b_particle_per_m
     c = a_per_m + b
     omega0 = b / c
-    pm = scattering.phase_matrix(b_molecular_per_m, b_particle_per_m, particle_backscatter_ratio)
+    pm = scattering.phase_matrix(
+        b_molecular_per_m,
+        b_particle_per_m,
+        particle_backscatter_ratio,
+        particle_dop_max=particle_dop_max,
+        depolarization_ratio=depolarization_ratio,
+    )
     icdf = scattering.inverse_cdf_cos(pm)
     mu_table = np.stack([pm.beta, pm.m12, pm.m22, pm.m33, pm.m44])
     planes = np.asarray(g.planes, dtype=np.float64)
@@ -346,6 +403,9 @@ def solve(
     edges_cos = np.cos(np.radians(np.asarray(g.theta_edges_deg, dtype=np.float64)))
     edges_cos[0], edges_cos[-1] = 1.0, -1.0
     n_t, n_p = len(g.theta_edges_deg) - 1, g.n_phi
+    aur_edges = np.asarray(g.aureole_psi_edges_deg if source == "sun" else (), dtype=float)
+    aur_cos = np.cos(np.radians(aur_edges)) if aur_edges.size else np.ones(1)
+    n_psi, n_om = max(aur_edges.size - 1, 0), g.aureole_n_omega
     sky_src = sky_source(sky if source == "sky" else None, sun_zenith_air_deg, n_water)
     # The refracted sun (the sky source ignores it but is labelled with it).
     theta_w = math.asin(math.sin(math.radians(sun_zenith_air_deg)) / n_water)
@@ -355,24 +415,29 @@ def solve(
     seeds = rng.integers(0, 2**31 - 1, size=batches)
     n_pl = len(planes)
     per_batch = [photons // batches + (1 if i < photons % batches else 0) for i in range(batches)]
-    rads, irrs, fluxes = [], [], []
+    rads, aurs, irrs, fluxes = [], [], [], []
     absorbed = np.zeros(n_pl)
     totals = np.zeros(4)
     for nb, sd in zip(per_batch, seeds, strict=True):
         rad = np.zeros((2, n_pl, n_t, n_p, 3))
+        aur = np.zeros((n_pl, n_psi, n_om, 3))
         irr = np.zeros((n_pl, 2))
         flux = np.zeros(1)
         kernel.transport(
             nb, int(sd), 0 if source == "sun" else 1, theta_w, beam_q, omega0, n_water,
             slope_sigma, math.radians(sun_zenith_air_deg), icdf, mu_table, sky_src.cdf,
             sky_src.s2_edges, sky_src.qu, sky_src.cdf_air, sky_src.qu_air, planes, bottom,
-            edges_cos, n_p, rad, irr, absorbed, totals, flux,
+            edges_cos, n_p, rad, aur, aur_cos, irr, absorbed, totals, flux,
         )  # fmt: skip
         # Per unit downwelling irradiance below the surface (a flat sea: per history).
         rads.append(rad / flux[0])
+        aurs.append(aur / flux[0])
         irrs.append(irr / flux[0])
         fluxes.append(flux[0])
     rad_b = np.stack(rads) / g.solid_angle_mu()[None, None, None, :, :, None]
+    aur_b = np.stack(aurs)
+    if n_psi:
+        aur_b = aur_b / g.aureole_solid_angle_mu(theta_w)[None, None, :, :, None]
     irr_b = np.stack(irrs)
     src_total = float(sum(fluxes))
     if slope_sigma > 0.0:
@@ -390,6 +455,7 @@ def solve(
         return m, se
 
     rm, rse = mean_se(rad_b)
+    am, ase = mean_se(aur_b)
     im, ise = mean_se(irr_b)
     return LightField(
         grid=g,
@@ -399,6 +465,8 @@ def solve(
         multiple=rm[1],
         single_se=rse[0],
         multiple_se=rse[1],
+        aureole=am,
+        aureole_se=ase,
         e_down=im[:, 0],
         e_up=im[:, 1],
         e_down_se=ise[:, 0],

@@ -164,6 +164,21 @@ class SkyTable:
         """:attr:`field` with the rings at the zenith and the nadir made smooth (``_smooth``)."""
         return _smooth(self.field, self.field.shape[3])
 
+    @functools.cached_property
+    def remainder(self) -> FloatArray:
+        """:attr:`smooth` less the reflected upwelling light in the window's bins (flat sea).
+
+        As node values that conserve the bins' means (:func:`decompose.conserve`). What the
+        coarse bins keep (:mod:`sensors.polarimeter.rt.decompose`); the renderer adds
+        the reflection per pixel. A wavy sea keeps all of it in the bins.
+        """
+        from sensors.polarimeter.rt import decompose
+        from sensors.polarimeter.rt.table import _n_inside, remainder_of
+
+        rem = remainder_of(self.smooth, self.water, beams=None)
+        edges = np.asarray(reference.Grid(planes=TABLE_PLANES).theta_edges_deg)
+        return decompose.conserve(rem, edges, _n_inside(edges)).astype(np.float32)
+
     @classmethod
     def from_arrays(
         cls, d: dict[str, np.ndarray] | np.lib.npyio.NpzFile, water: WaterKey, prefix: str = ""

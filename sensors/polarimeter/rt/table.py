@@ -37,6 +37,7 @@ cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import hashlib
 import math
@@ -51,15 +52,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.rt import reference
+from sensors.polarimeter import scattering
+from sensors.polarimeter.rt import decompose, reference
 
 if TYPE_CHECKING:
     from sensors.polarimeter.rt.sky_table import SkyTable
 
 FloatArray = NDArray[np.floating]
 
-#: Air zenith angles of the sun at which the table is computed (degrees).
-SUN_ZENITH_AIR_DEG: tuple[float, ...] = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0, 87.0)
+#: Air zenith angles of the sun at which the table is computed (degrees). 7.5° apart to 60°,
+#: closer towards the horizon: between nodes 15° apart the light 10–30° from the refracted sun
+#: was 3–4 % off the reference (II, sun 52°); at 7.5° it is within ~2 % (the closing note of
+#: the fidelity issue has the ring tables).
+SUN_ZENITH_AIR_DEG: tuple[float, ...] = (
+    0.0, 7.5, 15.0, 22.5, 30.0, 37.5, 45.0, 52.5, 60.0, 65.0, 70.0, 75.0, 80.0, 84.0, 87.0,
+)  # fmt: skip
 #: The table's planes, optical depths c z.
 TABLE_PLANES: tuple[float, ...] = (
     0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0, 20.0,
@@ -76,7 +83,9 @@ SHIPPED_PHOTONS = 1_500_000
 FIRST_USE_PHOTONS = 200_000
 
 #: Bumped whenever the transport changes what a table holds, so that stale caches are not read.
-MODEL_VERSION = 2
+#: 3: δ = 0.044 and P = 0.75 (sourced), the Fournier–Forand peak sampled exactly (b, not
+#: 1.009 b), the sun's aureole tallied about the refracted sun, sun nodes 7.5° apart.
+MODEL_VERSION = 3
 
 DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "lightfield_jerlov_500nm.npz"
 
@@ -86,7 +95,8 @@ class WaterKey:
     """What a table depends on (besides the fixed grid and index): the water and its surface.
 
     ``wind_speed_mps`` is one of :data:`WIND_NODES_MPS` (the renderer interpolates between
-    them): the Cox–Munk sea of the reference (0 = flat).
+    them): the Cox–Munk sea of the reference (0 = flat). ``particle_dop_max`` and
+    ``depolarization_ratio`` are the phase matrix's P and δ (:mod:`sensors.polarimeter.scattering`).
     """
 
     a_per_m: float
@@ -94,6 +104,8 @@ class WaterKey:
     b_particle_per_m: float
     particle_backscatter_ratio: float
     wind_speed_mps: float = 0.0
+    particle_dop_max: float = scattering.PARTICLE_DOP_MAX
+    depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO
 
     @classmethod
     def of(cls, water: object, wind_speed_mps: float = 0.0) -> WaterKey:
@@ -104,6 +116,13 @@ class WaterKey:
             round(float(water.b_particle_per_m), 9),  # type: ignore[attr-defined]
             round(float(water.particle_backscatter_ratio), 9),  # type: ignore[attr-defined]
             round(float(wind_speed_mps), 9),
+            round(float(getattr(water, "particle_dop_max", scattering.PARTICLE_DOP_MAX)), 9),
+            round(
+                float(
+                    getattr(water, "depolarization_ratio", scattering.WATER_DEPOLARIZATION_RATIO)
+                ),
+                9,
+            ),
         )
 
     def digest(self) -> str:
@@ -111,7 +130,8 @@ class WaterKey:
         text = (
             f"{self.a_per_m:.9g},{self.b_molecular_per_m:.9g},{self.b_particle_per_m:.9g},"
             f"{self.particle_backscatter_ratio:.9g},{TABLE_INDEX},{SUN_ZENITH_AIR_DEG},"
-            f"{TABLE_PLANES},{MODEL_VERSION},{self.wind_speed_mps:.9g}"
+            f"{TABLE_PLANES},{MODEL_VERSION},{self.wind_speed_mps:.9g},"
+            f"{self.particle_dop_max:.9g},{self.depolarization_ratio:.9g}"
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -119,6 +139,10 @@ class WaterKey:
     def c_per_m(self) -> float:
         """Beam attenuation c = a + b."""
         return self.a_per_m + self.b_molecular_per_m + self.b_particle_per_m
+
+
+_NONE = np.zeros((1, 2, 3), dtype=np.float32)
+_NONE_ROWS = np.zeros(1)
 
 
 @dataclass(frozen=True)
@@ -135,6 +159,16 @@ class FrameField:
         outside_theta: (T_out + 2,) θ_c, bin centres, π.
         theta_c: The table's window edge (radians).
         dphi: Azimuth bin width (radians); padded column j sits at (j − ½) dphi.
+        aureole: The sun's aureole, tapered and padded (:func:`decompose.pad_aureole`); one
+            row: none.
+        aureole_psi: Its rows' angles from the refracted sun (radians).
+        aureole_dom: Its position-angle bin width (radians).
+        up: The upwelling light at the surface, rows from the window's edge to the nadir as
+            :attr:`outside` (for the reflection into the window; a flat sea's share), or one
+            row: none.
+
+    :attr:`inside` and :attr:`outside` hold the remainder: the table's light less the aureole
+    and the reflection (:mod:`sensors.polarimeter.rt.decompose`), which the kernel adds back.
     """
 
     inside: FloatArray
@@ -143,6 +177,10 @@ class FrameField:
     outside_theta: FloatArray
     theta_c: float
     dphi: float
+    aureole: FloatArray = dataclasses.field(default_factory=lambda: _NONE)
+    aureole_psi: FloatArray = dataclasses.field(default_factory=lambda: _NONE_ROWS)
+    aureole_dom: float = 1.0
+    up: FloatArray = dataclasses.field(default_factory=lambda: _NONE)
 
     @functools.cached_property
     def inside_cos(self) -> FloatArray:
@@ -170,6 +208,9 @@ class LightFieldTable:
     sky_uniform: FloatArray
     e_down_sky_uniform: FloatArray
     photons: int
+    aureole: FloatArray
+    aureole_se: FloatArray
+    aureole_psi_edges_deg: FloatArray
 
     # ---- build, save, load -------------------------------------------------------------------
     @classmethod
@@ -198,6 +239,9 @@ class LightFieldTable:
             sky_uniform=sky.total.mean(axis=2).astype(np.float32),  # azimuthally symmetric
             e_down_sky_uniform=np.asarray(sky.e_down),
             photons=int(photons),
+            aureole=np.stack([f.aureole for f in suns]).astype(np.float32),
+            aureole_se=np.stack([f.aureole_se[..., 0] for f in suns]).astype(np.float32),
+            aureole_psi_edges_deg=np.asarray(grid.aureole_psi_edges_deg, dtype=float),
         )
 
     def arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
@@ -211,6 +255,8 @@ class LightFieldTable:
                     k.b_particle_per_m,
                     k.particle_backscatter_ratio,
                     k.wind_speed_mps,
+                    k.particle_dop_max,
+                    k.depolarization_ratio,
                 ]
             ),
             f"{prefix}sun_zenith_water_deg": self.sun_zenith_water_deg,
@@ -225,6 +271,13 @@ class LightFieldTable:
             f"{prefix}sky": self.sky_uniform,
             f"{prefix}e_down_sky": self.e_down_sky_uniform,
             f"{prefix}photons": np.array(self.photons),
+            f"{prefix}aureole_per_ed": _per(
+                self.aureole, self.e_down_sun[:, :, None, None, None], np.float32
+            ),
+            f"{prefix}aureole_se_per_ed": _per(
+                self.aureole_se, self.e_down_sun[:, :, None, None], np.float32
+            ),
+            f"{prefix}aureole_psi_edges_deg": self.aureole_psi_edges_deg,
         }
 
     @classmethod
@@ -250,12 +303,70 @@ class LightFieldTable:
             sky_uniform=np.asarray(d[f"{prefix}sky"], dtype=np.float32),
             e_down_sky_uniform=np.asarray(d[f"{prefix}e_down_sky"], dtype=float),
             photons=int(d[f"{prefix}photons"]),
+            aureole=np.nan_to_num(
+                np.asarray(d[f"{prefix}aureole_per_ed"], dtype=np.float32)
+                * ed[:, :, None, None, None]
+            ),
+            aureole_se=np.nan_to_num(
+                np.asarray(d[f"{prefix}aureole_se_per_ed"], dtype=np.float32) * ed[:, :, None, None]
+            ),
+            aureole_psi_edges_deg=np.asarray(d[f"{prefix}aureole_psi_edges_deg"], dtype=float),
         )
 
     @functools.cached_property
     def _smooth(self) -> FloatArray:
         """The sun field, its rings at the zenith and the nadir made smooth (:func:`_smooth`)."""
         return _smooth(self.sun, self.n_phi)
+
+    @functools.cached_property
+    def aureole_grid(self) -> FloatArray:
+        """(S, P, n_ψ + 2, n_ω + 2, 3) the aureole, tapered and padded for the kernel."""
+        return decompose.pad_aureole(self.aureole, self.aureole_psi_edges_deg)
+
+    @functools.cached_property
+    def aureole_psi(self) -> FloatArray:
+        """The padded aureole rows' angles from the refracted sun (radians)."""
+        return decompose.aureole_rows(self.aureole_psi_edges_deg)
+
+    @property
+    def aureole_dom(self) -> float:
+        """The aureole's position-angle bin width (radians)."""
+        return math.pi / self.aureole.shape[3]
+
+    @functools.cached_property
+    def remainder(self) -> FloatArray:
+        """The smoothed sun field less the aureole's and the reflection's bin means.
+
+        (:mod:`sensors.polarimeter.rt.decompose`; the reflection on a flat sea only.)
+        """
+        rem = _smooth(self.sun, self.n_phi).astype(np.float64)
+        edges = self.theta_edges_deg
+        sa = reference.Grid(
+            planes=TABLE_PLANES, theta_edges_deg=tuple(edges.tolist()), n_phi=self.n_phi
+        ).solid_angle_mu()
+        for i, th in enumerate(self.sun_zenith_water_deg):
+            binner = decompose.AureoleBinner(
+                math.radians(float(th)),
+                self.aureole_psi_edges_deg,
+                self.aureole.shape[3],
+                edges,
+                self.n_phi,
+                sa,
+            )
+            for k in range(len(self.planes)):
+                rem[i, k] -= binner.mean(
+                    self.aureole_grid[i, k], self.aureole_psi, self.aureole_dom
+                )
+        beams = [decompose.beam_terms(self.key, z, TABLE_INDEX) for z in SUN_ZENITH_AIR_DEG]
+        rem = remainder_of(rem, self.key, beams=beams)
+        return decompose.conserve(rem, edges, _n_inside(edges)).astype(np.float32)
+
+    @functools.cached_property
+    def sky_uniform_nodes(self) -> FloatArray:
+        """:attr:`sky_uniform` as node values that conserve its bin means (night sky)."""
+        edges = self.theta_edges_deg
+        out = decompose.conserve(self.sky_uniform[:, :, None, :], edges, _n_inside(edges))
+        return out[:, :, 0, :].astype(np.float32)
 
     # ---- per frame -----------------------------------------------------------------------------
     def frame(
@@ -281,20 +392,60 @@ class LightFieldTable:
                 sky (a night sky).
         """
         i, f = self._node(sun_zenith_water_rad, n_water)
-        sun_t = self._smooth
-        sun = (1.0 - f) * self._at_depth(sun_t[i], self.e_down_sun[i], tau_c) + f * (
-            self._at_depth(sun_t[i + 1], self.e_down_sun[i + 1], tau_c)
-        )
+        sun_t = self.remainder
+        flat = self.key.wind_speed_mps == 0.0
+        zn = np.radians(self.sun_zenith_water_deg)
+        th_frame = (1.0 - f) * zn[i] + f * zn[i + 1]
+
+        def at(tab: FloatArray, ed: FloatArray, tau: float, warp: bool = True) -> FloatArray:
+            a = self._at_depth(tab[i], ed[i], tau)
+            b = self._at_depth(tab[i + 1], ed[i + 1], tau)
+            if warp and 0.0 < f < 1.0:
+                a = self._warp(a, float(zn[i]), th_frame)
+                b = self._warp(b, float(zn[i + 1]), th_frame)
+            return (1.0 - f) * a + f * b
+
+        sun = at(sun_t, self.e_down_sun, tau_c)
+        up = e_sun_plane * at(sun_t, self.e_down_sun, 0.0) if flat else None
         if sky is None:
-            sky_f = self._at_depth(self.sky_uniform, self.e_down_sky_uniform, tau_c)[:, None, :]
+            # The night's uniform sky keeps its reflection in the bins (it is dim and smooth).
+            sky_f = self._at_depth(self.sky_uniform_nodes, self.e_down_sky_uniform, tau_c)
+            sky_f = sky_f[:, None, :]
         else:
-            sky_t = sky.smooth
-            sky_f = (1.0 - f) * self._at_depth(sky_t[i], sky.e_down[i], tau_c) + f * (
-                self._at_depth(sky_t[i + 1], sky.e_down[i + 1], tau_c)
-            )
+            sky_t = sky.remainder
+            sky_f = at(sky_t, sky.e_down, tau_c)
+            if up is not None:
+                up = up + e_sky_plane * at(sky_t, sky.e_down, 0.0)
         g = e_sun_plane * sun + e_sky_plane * sky_f
-        g = g.astype(np.float32)
-        return self._pad(g)
+        field = self._pad(g.astype(np.float32))
+        aur = e_sun_plane * at(self.aureole_grid, self.e_down_sun, tau_c, warp=False)
+        up_grid = _NONE if up is None else self._pad(up.astype(np.float32)).outside
+        return dataclasses.replace(
+            field,
+            aureole=np.ascontiguousarray(aur, dtype=np.float32),
+            aureole_psi=self.aureole_psi,
+            aureole_dom=self.aureole_dom,
+            up=up_grid,
+        )
+
+    def _warp(self, field: FloatArray, th_node: float, th_frame: float) -> FloatArray:
+        """A node's field inside Snell's window with its sun moved to this frame's sun.
+
+        Between sun nodes the light near the sun follows the sun while the window's edge stays:
+        the rows inside the window are resampled (linearly in θ between their nodes) at
+        θ' = warp(θ), piecewise linear with warp(0) = 0, warp(θ_frame) = θ_node and
+        warp(θ_c) = θ_c. (The aureole is interpolated in the sun's own frame instead.)
+        """
+        edges = np.radians(self.theta_edges_deg)
+        n_in = _n_inside(self.theta_edges_deg)
+        tc = float(edges[n_in])
+        c = 0.5 * (edges[1 : n_in + 1] + edges[:n_in])
+        src = np.interp(c, [0.0, th_frame, tc], [0.0, th_node, tc])
+        out = field.copy()
+        k = np.clip(np.searchsorted(c, src) - 1, 0, n_in - 2)
+        t = np.clip((src - c[k]) / (c[k + 1] - c[k]), 0.0, 1.0)[:, None, None]
+        out[:n_in] = (1.0 - t) * field[k] + t * field[k + 1]
+        return out
 
     def _node(self, sun_zenith_water_rad: float, n_water: float) -> tuple[int, float]:
         """The sun node below this frame's sun and the interpolation weight of the next."""
@@ -356,10 +507,15 @@ class LightFieldTable:
 
 
 def blend(parts: list[tuple[float, FrameField]]) -> FrameField:
-    """The weighted sum of frame fields on one grid (the renderer's wind interpolation)."""
+    """The weighted sum of frame fields on one grid (the renderer's wind interpolation).
+
+    The reflection's upwelling light is the flat sea's alone (a wavy sea keeps it in its bins).
+    """
     first = parts[0][1]
     inside = sum(w * f.inside for w, f in parts)
     outside = sum(w * f.outside for w, f in parts)
+    aur = sum(w * f.aureole for w, f in parts)
+    ups = [w * f.up for w, f in parts if f.up.shape[0] > 1]
     return FrameField(
         np.ascontiguousarray(inside, dtype=np.float32),
         first.inside_theta,
@@ -367,15 +523,62 @@ def blend(parts: list[tuple[float, FrameField]]) -> FrameField:
         first.outside_theta,
         first.theta_c,
         first.dphi,
+        np.ascontiguousarray(aur, dtype=np.float32),
+        first.aureole_psi,
+        first.aureole_dom,
+        np.ascontiguousarray(sum(ups), dtype=np.float32) if ups else _NONE,
     )
 
 
-def _per(field: FloatArray, e_down: FloatArray) -> FloatArray:
+def remainder_of(field: FloatArray, key: WaterKey, beams: list[tuple] | None) -> FloatArray:
+    """(S, P, T, n_phi, 3) ``field`` less the reflected light's bin means in the window's rows.
+
+    The reflection of the field's own upwelling light at the surface (plane 0) plus, per sun
+    node, the once-scattered beam's (``beams``: :func:`decompose.beam_terms`; None for a sky
+    table, which holds all its scattered light). A wavy sea's field is returned unchanged.
+    """
+    out = np.array(field, dtype=np.float64)
+    if key.wind_speed_mps != 0.0:
+        return out
+    grid = reference.Grid(planes=TABLE_PLANES)
+    n_in = _n_inside(np.asarray(grid.theta_edges_deg))
+    binner = _reflection_binner(n_in)
+    dphi = math.pi / grid.n_phi
+    planes = np.asarray(TABLE_PLANES)
+    dummy = LightFieldTable.__new__(LightFieldTable)
+    object.__setattr__(dummy, "theta_edges_deg", np.asarray(grid.theta_edges_deg))
+    object.__setattr__(dummy, "n_phi", grid.n_phi)
+    for i in range(field.shape[0]):
+        # The upwelling light as the kernel will read it: node values, padded.
+        nodes = decompose.conserve(field[i, 0], grid.theta_edges_deg, n_in)
+        pad = LightFieldTable._pad(dummy, nodes.astype(np.float32))
+        beam = None if beams is None else beams[i]
+        for k, tau in enumerate(planes):
+            out[i, k, :n_in] -= binner.mean(
+                float(tau), pad.outside, pad.outside_cos, dphi, TABLE_INDEX, beam
+            )
+    # At the surface itself the light looking up inside the window is, besides the direct light,
+    # only what the surface reflects: the bins' remainder there is Monte Carlo noise, and is 0.
+    out[:, 0, :n_in] = 0.0
+    return out
+
+
+def _n_inside(theta_edges_deg: FloatArray) -> int:
+    """The number of look-zenith bins inside Snell's window (its edge is a bin edge)."""
+    edges = np.radians(np.asarray(theta_edges_deg, dtype=float))
+    return int(np.argmin(np.abs(edges - math.asin(1.0 / TABLE_INDEX))))
+
+
+@functools.lru_cache(maxsize=4)
+def _reflection_binner(n_in: int) -> decompose.ReflectionBinner:
+    grid = reference.Grid(planes=TABLE_PLANES)
+    return decompose.ReflectionBinner(np.asarray(grid.theta_edges_deg), grid.n_phi, n_in)
+
+
+def _per(field: FloatArray, e_down: FloatArray, dtype: type = np.float16) -> FloatArray:
     """The field / E_d as float16 (0 where no history reached the plane)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(e_down > 0, field / np.where(e_down > 0, e_down, 1.0), 0.0).astype(
-            np.float16
-        )
+        return np.where(e_down > 0, field / np.where(e_down > 0, e_down, 1.0), 0.0).astype(dtype)
 
 
 def _pole_ring(rings: FloatArray, n_phi: int) -> FloatArray:
@@ -435,6 +638,8 @@ def _solve_one(args: tuple) -> reference.LightField:
         key.b_molecular_per_m,
         key.b_particle_per_m,
         key.particle_backscatter_ratio,
+        particle_dop_max=key.particle_dop_max,
+        depolarization_ratio=key.depolarization_ratio,
         source=src,
         sun_zenith_air_deg=z,
         sky=None if sky is None else sky.spec(),
