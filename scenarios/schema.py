@@ -362,7 +362,9 @@ class Hardware:
 #: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
 #: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
 #: aids the filter (POL/INS, LIG/INS, ...).
-NAV_VARIANTS: tuple[str, ...] = ("ins", "lig", "pol", "roia", "snell", "moi", "patz", "ht")
+NAV_VARIANTS: tuple[str, ...] = (
+    "ins", "lig", "lig_paper", "pol", "roia", "snell", "moi", "patz", "ht",
+)  # fmt: skip
 NAV_TUNINGS: tuple[str, ...] = ("imu", "datasheet", "paper")
 NAV_ALIGNMENTS: tuple[str, ...] = ("paper", "gyrocompass")
 SUN_MEASUREMENTS: tuple[str, ...] = ("vector", "azimuth")

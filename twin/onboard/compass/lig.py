@@ -20,9 +20,10 @@ Pipeline per frame (equation numbers of the paper):
    gradient (3×3 Sobel) → the LIG angle γ and magnitude of each pixel.
 3. In-window pixels (eqs. 6–7): l^h = C_b^h Θ(m, n) with the INS roll/pitch hint (the only use of
    the attitude hint, as in the paper: the window and the refraction are about the true
-   vertical); r = atan(√(l1² + l2²)/l3) ≤ arcsin(n_a/n_w), n_w = ``ctx.water_index``. A margin
-   (``window_margin_rad``) keeps the median/Sobel support off the window's edge, whose radial
-   step is not a skylight gradient [deviation: the paper uses every in-window pixel].
+   vertical); r = atan(√(l1² + l2²)/l3) ≤ arcsin(n_a/n_w), n_w = ``ctx.water_index``. In ``lig``
+   a margin (``window_margin_rad``) keeps the median/Sobel support off the window's edge, whose
+   radial step is not a skylight gradient [deviation: the paper, and ``lig_paper``, use every
+   in-window pixel].
 4. Plane normals (eqs. 8–12): the paper maps the image angle γ̂ = γ − φ onto the air-side
    celestial sphere at the refracted-back incidence angle i = arcsin(n_w sin r / n_a) (eq. 11),
    through C_l^h (eq. 10). Here the same map is done with the exact chain rule: the image
@@ -30,10 +31,12 @@ Pipeline per frame (equation numbers of the paper):
    pixel → in-water ray (lens model, numerical derivative, cached) → air direction (Snell, in the
    level frame: meridian stretch n cos r / cos i, azimuthal stretch sin i / sin r); v = d_air × G.
    For a conformal lens and no refraction this is eq. 12 verbatim; the paper's use of γ̂ as the
-   angle on the air sphere ignores the (large near the window edge) anisotropic stretch of
-   refraction and of the equidistant fisheye, so the exact map is a refinement, not a change of
-   method. Normals are unit vectors (the paper: "the LIG vectors ... are regarded as unit
-   vectors").
+   angle on the air sphere ignores the anisotropic stretch of refraction and of the equidistant
+   fisheye. This map is the twin's variant (``lig``), not the paper's method: ``lig_paper``
+   (:data:`LIG_PAPER`) runs eqs. 9–12 as written, and on the same frames its zenith error is
+   often much smaller (ideal camera, II, 5 m, sun 30–70°: within 0.4° against the variant's
+   +9…+25°), so the variant is not a refinement there. Normals are unit vectors (the paper: "the
+   LIG vectors ... are regarded as unit vectors").
 5. s^h = eigenvector of V Vᵀ for κ_min (eqs. 13–15).
 6. Sun/anti-sun (the paper's rule): project ±s^h on the horizontal plane; the one pointing at the
    half of the window with the higher mean intensity is the sun. When the two halves differ by
@@ -313,6 +316,17 @@ class LigConfig:
             found first and refracted back to air (a variant for scattering-dominated water).
         weighting: ``"unit"`` — the paper's unit normals; ``"gradient"`` — weighted by the
             relative gradient |∇I|/I on the sphere (a variant).
+        mapping: ``"jacobian"`` — the twin's refinement: the image gradient carried to the air
+            sphere through the lens's and the refraction's Jacobian (module docstring, step 4);
+            ``"paper"`` — eqs. 9–12 as the paper writes them: the LIG angle γ of the image
+            gradient, γ̂ = γ − φ with φ the pixel's azimuth from its coordinates,
+            χ = arctan(tan(γ̂ − 90°)) (eq. 9), i = arcsin(n_w sin r) (eq. 11) and
+            v^h = C_l^h (cos χ, sin χ, 0)ᵀ (eqs. 8, 10).
+        eq12_as_printed: With ``mapping="paper"``: take eq. 12's first row as printed,
+            cos i cos φ − sin φ sin χ, which lacks the factor cos χ that C_l^h v^l gives it
+            (a misprint, measured by switching it); False: the product of eqs. 10 and 8.
+        exclude_saturated: Leave out clipped pixels and the filter support around them [not in
+            the paper].
     """
 
     median_ksize: int = 5
@@ -326,8 +340,13 @@ class LigConfig:
     sigma_floor_rad: float = math.radians(0.5)
     sphere: str = "air"
     weighting: str = "unit"
+    mapping: str = "jacobian"
+    eq12_as_printed: bool = False
+    exclude_saturated: bool = True
 
     def __post_init__(self) -> None:
+        if self.mapping not in ("jacobian", "paper"):
+            raise ValueError(f"LigConfig.mapping: {self.mapping!r}; allowed: 'jacobian', 'paper'")
         if self.sphere not in ("air", "water"):
             raise ValueError(f"LigConfig.sphere: {self.sphere!r}; allowed: 'air', 'water'")
         if self.weighting not in ("unit", "gradient"):
@@ -442,7 +461,9 @@ class LigCompass(CompassMethod):
         sigma_g = sigma * math.sqrt(12.0) / 8.0 * math.sqrt(math.pi / 2.0) / k
         gmag2 = gx * gx + gy * gy
         radius = k // 2 + 1  # median + Sobel support
-        bad = dilate(sat, radius) | dilate(~geo.valid, radius)
+        bad = dilate(~geo.valid, radius)
+        if cfg.exclude_saturated:
+            bad = bad | dilate(sat, radius)
         use = core & ~bad & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
         idx = np.flatnonzero(use)
         if idx.size < cfg.min_pixels:
@@ -452,33 +473,16 @@ class LigCompass(CompassMethod):
                 int(idx.size),
             )
 
-        # Eqs. 8–12 by the chain rule: image covector → sphere gradient on the air side → normal.
         p_c = geo.rays.reshape(-1, 3)[idx]
         p_h = p_c @ c_c_h.T
-        du_h = geo.du.reshape(-1, 3)[idx] @ c_c_h.T
-        dv_h = geo.dv.reshape(-1, 3)[idx] @ c_c_h.T
-        n_sphere = n_w if cfg.sphere == "air" else 1.0
-        d_air, sin_r, sin_i = refract_to_air(p_h, n_sphere)
-        e_t, e_p = meridian_basis(p_h)  # same azimuth ⇒ e_φ is shared by water and air sides
-        cos_r_s = p_h[:, 2]
-        cos_i = d_air[:, 2]
-        # Meridian stretch di/dr = n cos r / cos i, azimuthal stretch sin i / sin r (eq. 11).
-        st = n_sphere * cos_r_s / np.maximum(cos_i, 1e-6)
-        sp = np.divide(sin_i, sin_r, out=np.full_like(sin_r, n_sphere), where=sin_r > 1e-9)
-        a1 = np.einsum("ij,ij->i", du_h, e_t) * st
-        a2 = np.einsum("ij,ij->i", du_h, e_p) * sp
-        b1 = np.einsum("ij,ij->i", dv_h, e_t) * st
-        b2 = np.einsum("ij,ij->i", dv_h, e_p) * sp
-        gu = gx.reshape(-1)[idx].astype(np.float64)
-        gv = gy.reshape(-1)[idx].astype(np.float64)
-        det = a1 * b2 - a2 * b1
-        g1 = (gu * b2 - gv * a2) / det  # sphere gradient along e_i (air meridian)
-        g2 = (a1 * gv - b1 * gu) / det  # along e_φ
-        e_i, _ = meridian_basis(d_air)
-        normals = g1[:, None] * e_p - g2[:, None] * e_i  # d × (g1 e_i + g2 e_φ), (d, e_i, e_φ) RH
-        nn = np.linalg.norm(normals, axis=1)
-        ok = np.isfinite(nn) & (nn > 0)
-        normals = normals[ok] / nn[ok, None]
+        if cfg.mapping == "paper":
+            normals = _paper_normals(
+                p_c, p_h, gx.reshape(-1)[idx], gy.reshape(-1)[idx], n_w, cfg.eq12_as_printed
+            )
+            nn = np.ones(len(normals))
+            ok = np.ones(len(normals), dtype=bool)
+        else:
+            normals, nn, ok = _jacobian_normals(geo, idx, c_c_h, p_h, gx, gy, n_w, cfg.sphere)
         if len(normals) < cfg.min_pixels:
             return no_fix(self.name, "too few pixels with a usable gradient", len(normals))
         weights = None
@@ -487,6 +491,13 @@ class LigCompass(CompassMethod):
             weights = nn[ok] / ival
 
         sol = smallest_eigenvector(normals, weights)  # eqs. 13–15
+        return self._finish(sol, cfg, frame, in_window, geo, c_c_h, filt, sun_enu, k, sigma_g,
+                            mean_i)  # fmt: skip
+
+    def _finish(self, sol, cfg, frame, in_window, geo, c_c_h, filt, sun_enu, k, sigma_g, mean_i):
+        """Eqs. 13–15's solution → the fix (the sign by intensity, the covariance)."""
+        ctx = frame.ctx
+        n_w = float(ctx.water_index)
         if not (sol.eigen_gap >= cfg.min_eigen_gap):
             return no_fix(
                 self.name,
@@ -501,7 +512,7 @@ class LigCompass(CompassMethod):
             filt.reshape(-1)[win_idx],
             cfg.ambiguity_min_contrast,
         )
-        if cfg.sphere == "water":
+        if cfg.sphere == "water" and cfg.mapping == "jacobian":
             s_h = refract_back(s_h, n_w)
         c_b_h = ctx.c_b_h
         sun_body = c_b_h.T @ s_h
@@ -524,3 +535,86 @@ class LigCompass(CompassMethod):
             gradient_noise_dn=sigma_g,
             mean_intensity_dn=mean_i,
         )
+
+
+def _paper_normals(
+    p_c: FloatArray, p_h: FloatArray, gx: FloatArray, gy: FloatArray, n_w: float, printed: bool
+) -> FloatArray:
+    """Eqs. 8–12 as the paper writes them (LigConfig.mapping = "paper").
+
+    γ: the image gradient's angle from the image's zero direction, taken in the camera's x–y
+    plane (the image's u axis is camera +x, v is camera −y, so the gradient is (g_u, −g_v));
+    φ: the pixel's azimuth from its coordinates, i.e. of its ray in the camera frame (the lens
+    model Θ); r from l^h (eq. 7), i from eq. 11 (clipped at 90°).
+    """
+    gamma = np.arctan2(-gy.astype(np.float64), gx.astype(np.float64))
+    phi = np.arctan2(p_c[:, 1], p_c[:, 0])
+    chi = np.arctan(np.tan(gamma - phi - 0.5 * math.pi))  # eq. 9, χ ∈ [−90°, 90°]
+    sin_r = np.hypot(p_h[:, 0], p_h[:, 1])
+    sin_i = np.minimum(n_w * sin_r, 1.0)  # eq. 11
+    cos_i = np.sqrt(np.maximum(1.0 - sin_i * sin_i, 0.0))
+    cp, sp, cc, sc = np.cos(phi), np.sin(phi), np.cos(chi), np.sin(chi)
+    first = cos_i * cp - sp * sc if printed else cos_i * cp * cc - sp * sc
+    v = np.stack([first, cos_i * sp * cc + cp * sc, -sin_i * cc], axis=-1)  # eq. 12
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _jacobian_normals(
+    geo: AnalysisGeometry,
+    idx: NDArray[np.intp],
+    c_c_h: FloatArray,
+    p_h: FloatArray,
+    gx: NDArray[np.float32],
+    gy: NDArray[np.float32],
+    n_w: float,
+    sphere: str,
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """The twin's refinement of eqs. 8–12 (module docstring, step 4): (normals, |n|, kept)."""
+    # Eqs. 8–12 by the chain rule: image covector → sphere gradient on the air side → normal.
+    du_h = geo.du.reshape(-1, 3)[idx] @ c_c_h.T
+    dv_h = geo.dv.reshape(-1, 3)[idx] @ c_c_h.T
+    n_sphere = n_w if sphere == "air" else 1.0
+    d_air, sin_r, sin_i = refract_to_air(p_h, n_sphere)
+    e_t, e_p = meridian_basis(p_h)  # same azimuth ⇒ e_φ is shared by water and air sides
+    cos_r_s = p_h[:, 2]
+    cos_i = d_air[:, 2]
+    # Meridian stretch di/dr = n cos r / cos i, azimuthal stretch sin i / sin r (eq. 11).
+    st = n_sphere * cos_r_s / np.maximum(cos_i, 1e-6)
+    sp = np.divide(sin_i, sin_r, out=np.full_like(sin_r, n_sphere), where=sin_r > 1e-9)
+    a1 = np.einsum("ij,ij->i", du_h, e_t) * st
+    a2 = np.einsum("ij,ij->i", du_h, e_p) * sp
+    b1 = np.einsum("ij,ij->i", dv_h, e_t) * st
+    b2 = np.einsum("ij,ij->i", dv_h, e_p) * sp
+    gu = gx.reshape(-1)[idx].astype(np.float64)
+    gv = gy.reshape(-1)[idx].astype(np.float64)
+    det = a1 * b2 - a2 * b1
+    g1 = (gu * b2 - gv * a2) / det  # sphere gradient along e_i (air meridian)
+    g2 = (a1 * gv - b1 * gu) / det  # along e_φ
+    e_i, _ = meridian_basis(d_air)
+    normals = g1[:, None] * e_p - g2[:, None] * e_i  # d × (g1 e_i + g2 e_φ), (d, e_i, e_φ) RH
+    nn = np.linalg.norm(normals, axis=1)
+    ok = np.isfinite(nn) & (nn > 0)
+    return normals[ok] / nn[ok, None], nn, ok
+
+
+#: LIG as the paper writes it: eqs. 9–12 (``mapping="paper"``), every in-window pixel (no margin,
+#: no gradient-noise threshold, clipped pixels kept, no conditioning threshold), the paper's
+#: median pre-filter. (Kept from the twin: the 5×5 median, whose size the paper does not give, the
+#: Sobel gradient, and the too-dark / too-few-pixels guards.)
+LIG_PAPER = LigConfig(
+    mapping="paper",
+    window_margin_rad=0.0,
+    gradient_snr_min=0.0,
+    exclude_saturated=False,
+    min_eigen_gap=1.0,
+)
+
+
+@register
+class LigPaperCompass(LigCompass):
+    """LIG exactly as Hu et al. (2024) write it (:data:`LIG_PAPER`); ``lig`` is the twin's."""
+
+    name = "lig_paper"
+
+    def __init__(self, config: LigConfig | None = None, **overrides: object) -> None:
+        super().__init__(config if config is not None else LIG_PAPER, **overrides)
