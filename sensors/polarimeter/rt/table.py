@@ -357,7 +357,12 @@ class LightFieldTable:
                 rem[i, k] -= binner.mean(
                     self.aureole_grid[i, k], self.aureole_psi, self.aureole_dom
                 )
-        beams = [decompose.beam_terms(self.key, z, TABLE_INDEX) for z in SUN_ZENITH_AIR_DEG]
+        # The nodes' suns in air, from the table's own refracted suns (Snell at its index).
+        air = [
+            math.degrees(math.asin(min(TABLE_INDEX * math.sin(math.radians(float(t))), 1.0)))
+            for t in self.sun_zenith_water_deg
+        ]
+        beams = [decompose.beam_terms(self.key, z, TABLE_INDEX) for z in air]
         rem = remainder_of(rem, self.key, beams=beams)
         return decompose.conserve(rem, edges, _n_inside(edges)).astype(np.float32)
 
