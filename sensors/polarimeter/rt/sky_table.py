@@ -173,11 +173,17 @@ class SkyTable:
         the reflection per pixel. A wavy sea keeps all of it in the bins.
         """
         from sensors.polarimeter.rt import decompose
-        from sensors.polarimeter.rt.table import _n_inside, remainder_of
+        from sensors.polarimeter.rt.table import REMAINDER_POLE_ROWS, _n_inside, remainder_of
 
-        rem = remainder_of(self.smooth, self.water, beams=None)
+        rem = _smooth(
+            remainder_of(self.smooth, self.water, beams=None),
+            self.field.shape[3],
+            REMAINDER_POLE_ROWS,
+        )
         edges = np.asarray(reference.Grid(planes=TABLE_PLANES).theta_edges_deg)
-        return decompose.conserve(rem, edges, _n_inside(edges)).astype(np.float32)
+        return decompose.conserve(rem, edges, _n_inside(edges), noisy_azimuth=True).astype(
+            np.float32
+        )
 
     @classmethod
     def from_arrays(

@@ -1,12 +1,14 @@
 """The fast path (coarse grid + exact pixels near the window edge and the sun) vs the exact chain.
 
-Measured bounds (docs/polarimeter.md), max over every valid pixel of ten scenes: relative S0 error
-< 4 %, AoP error < 3° where DoP > 0.05 and < 1.5° where DoP > 0.2, |Δ(S1, S2)|/S0 < 0.02; Snell's
-window mask identical. The errors come from the radiative-transfer table's bin-scale structure
-(3–4° × 15° bins with their Monte Carlo noise, bilinear between bin centres; the sky model's
-scattered light has it in azimuth too), which a 1.76° coarse grid interpolates with kinks; they
-are about the table's own standard error (~2–3 %). The full-resolution frame (a finer grid in
-angle) does 2–3× better; one scene is checked.
+Measured bounds (docs/polarimeter.md), max over every valid pixel of ten scenes (light model 3):
+relative S0 error < 4.5 % (3.5 % measured), AoP error < 3° where DoP > 0.05 and < 1.5° where
+DoP > 0.2, |Δ(S1, S2)|/S0 < 0.03 (0.028); Snell's window mask identical. The errors come from the
+table's remainder, linear between nodes 3–4° × 15° apart, with its Monte Carlo noise: the kinks
+at the node lines are what a 1.76° coarse grid cannot follow. They are about the table's own
+standard error (~2–3 %). Light model 3 (aureole per pixel, conserving node values) raised the
+worst pixel from 3.5 to 3.5–4 % of S0 and 0.020 to 0.028 in polarization: the node values carry
+the bins' noise where the bin means used to be the nodes. The full-resolution frame (a finer
+grid in angle) does better; one scene is checked.
 """
 
 from __future__ import annotations
@@ -107,23 +109,25 @@ def test_the_binned_fast_frame_matches_the_exact_chain(name, c, depth, sun, opti
     e = _errors(fast, exact, c, depth, sun)
     # A sky other than the default has its scattered light computed on first use, with 200 000
     # histories instead of 1.5 million: bins √7.5 ≈ 2.7 times noisier, and so are the kinks the
-    # coarse grid cannot follow (the overcast scene: 5.0 % / 10.6 % / 3.2° / 0.067 measured; with
-    # a 1.5-million table 1.6 % / 2.9 % / 2.1° / 0.021, like the others).
-    k = 3.5 if "sky" in optics else 1.0
-    assert e["s0_window"] < 0.035 * k, e
-    assert e["s0"] < 0.04 * k, e
+    # coarse grid cannot follow (the overcast scene, light model 3: 2.8 % / 15.7 % / 8.5° / 2.2°
+    # / 0.041 measured, the 15.7 % outside the window; the Berry sky 3.4 % / 3.7 % / 1.9° / 1.2°
+    # / 0.021).
+    k = 4.0 if "sky" in optics else 1.0
+    assert e["s0_window"] < 0.04 * k, e
+    assert e["s0"] < 0.045 * k, e
     assert e["aop_dop05"] < 3.0 * k, e
     assert e["aop_dop20"] < 1.5 * k, e
-    assert e["pol"] < 0.02 * k, e
+    assert e["pol"] < 0.03 * k, e
 
 
 def test_the_full_resolution_fast_frame_matches_the_exact_chain():
     fast, exact = _pair("phx050s_p")
     e = _errors(fast, exact, euler_to_dcm(0.35, -0.17, 0.4), 1.0, _sun(30, 60))
-    assert e["s0_window"] < 0.01, e
-    assert e["s0"] < 0.015, e
-    assert e["aop_dop05"] < 0.5, e
-    assert e["pol"] < 0.01, e
+    # light model 3: 1.55 % / 1.94 % / 0.86° / 0.016 measured (1 % / 1.5 % / 0.5° / 0.01 before)
+    assert e["s0_window"] < 0.02, e
+    assert e["s0"] < 0.025, e
+    assert e["aop_dop05"] < 1.0, e
+    assert e["pol"] < 0.02, e
 
 
 def test_occluded_pixels_keep_only_the_scattered_light_on_the_fast_path_too():

@@ -191,8 +191,9 @@ def test_shallow_clear_water_is_single_scattering_with_the_molecular_dop():
     v = _unit(np.cross(s, [1.0, 0.0, 0.0]))  # 90° from the refracted sun
     v = v if v[2] > 0 else -v
     _, dop = st.to_aop_dop(col.single_scattering(v[None], state._replace(beam_q=0.0)))
-    # Type I scatters almost only by molecules: DoP(90°) = (1 − δ)/(1 + δ) = 0.835 (δ = 0.09).
-    assert float(dop[0]) == pytest.approx(0.835, abs=0.01)
+    # Type I scatters almost only by molecules: DoP(90°) = (1 − δ)/(1 + δ) (0.916 at δ = 0.044).
+    d = col.water.depolarization_ratio
+    assert float(dop[0]) == pytest.approx((1.0 - d) / (1.0 + d), abs=0.01)
     # Looking horizontally (an unbounded line of sight), single scattering is a large share.
     h = np.array([[-s[1], s[0], 0.0]]) / math.hypot(s[0], s[1])  # ⟂ the sun's azimuth: ψ = 90°
     single = col.single_scattering_radiance(h, state)
