@@ -54,6 +54,30 @@ def _rrd_provenance(rrd: Path) -> dict[str, str]:
 
 
 # ---- part 2: provenance ------------------------------------------------------------------------
+def test_a_tree_is_dirty_for_code_not_for_benchmark_results(tmp_path: Path, monkeypatch) -> None:
+    """A benchmark's fresh table does not mark the next one's run as made from changed code."""
+    from twin.record import provenance as pv
+
+    git = ["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t"]
+    subprocess.run([*git, "init", "-q"], check=True)
+    (tmp_path / "code.py").write_text("x = 1\n")
+    subprocess.run([*git, "add", "."], check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "c"], check=True)
+    monkeypatch.setattr(pv, "_REPO", tmp_path)
+
+    def dirty() -> bool:
+        pv.code_version.cache_clear()
+        return pv.code_version()["dirty"]
+
+    assert dirty() is False
+    (tmp_path / "benchmarks" / "results").mkdir(parents=True)
+    (tmp_path / "benchmarks" / "results" / "table.md").write_text("| a |\n")
+    assert dirty() is False
+    (tmp_path / "code.py").write_text("x = 2\n")
+    assert dirty() is True
+    pv.code_version.cache_clear()
+
+
 def test_every_output_of_a_run_says_where_it_came_from(tmp_path: Path, capsys) -> None:
     base = dataclasses.replace(scenarios.load("tank"), duration_s=2.0)
     changed = dataclasses.replace(base, duration_s=3.0)  # one input changed

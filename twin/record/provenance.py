@@ -43,6 +43,8 @@ PACKAGES = (
 #: The key under which Parquet files keep the block (JSON) in their schema metadata.
 PARQUET_KEY = b"auv_twin.provenance"
 _REPO = Path(__file__).resolve().parents[2]
+#: The benchmarks' output folder: changes there do not make the tree dirty (:func:`code_version`).
+_OUTPUTS = "benchmarks/results"
 
 
 def fingerprint(obj: Any) -> str:
@@ -63,8 +65,10 @@ def code_version() -> dict[str, Any]:
     """``{"auv_twin": version, "commit": sha or None, "dirty": bool or None}``.
 
     The commit is read with ``git`` from the checkout the package runs from; a tree with changes
-    to tracked or untracked (not ignored) files is dirty. Cached per process: a campaign worker
-    asks once.
+    to tracked or untracked (not ignored) files is dirty, except under ``benchmarks/results/``
+    (:data:`_OUTPUTS`: what the benchmarks write, never what they read, so one benchmark's fresh
+    table does not mark the next one's run as made from changed code). Cached per process: a
+    campaign worker asks once.
     """
     out: dict[str, Any] = {"auv_twin": _dist_version("auv-twin"), "commit": None, "dirty": None}
     if not (_REPO / ".git").exists():
@@ -76,7 +80,7 @@ def code_version() -> dict[str, Any]:
             capture_output=True, text=True, timeout=10, env=env, check=True,
         ).stdout.strip()  # fmt: skip
         status = subprocess.run(
-            ["git", "-C", str(_REPO), "status", "--porcelain"],
+            ["git", "-C", str(_REPO), "status", "--porcelain", "--", ".", f":!{_OUTPUTS}"],
             capture_output=True, text=True, timeout=30, env=env, check=True,
         ).stdout  # fmt: skip
     except (OSError, subprocess.SubprocessError):
