@@ -38,8 +38,8 @@ SETTINGS = (
     ("sourced (P 0.75, δ 0.044)", P0, D0, ("I", "II", "3C")),
     ("P = 0.6", 0.6, D0, ("II", "3C")),
     ("P = 0.9", 0.9, D0, ("II", "3C")),
-    # δ only in Jerlov I, where the molecules scatter most of the light (in II the particles
-    # scatter 98 % of b, in I none: δ acts on the 2 % of II's scattering, all of I's).
+    # δ only in Jerlov I, whose scattering is all molecular (in II the particles scatter 98 %
+    # of b: δ acts on 2 % of its scattering).
     ("δ = 0.0425", P0, 0.0425, ("I",)),
     ("δ = 0.046", P0, 0.046, ("I",)),
     ("δ = 0.09 (Morel 1974)", P0, 0.09, ("I",)),
