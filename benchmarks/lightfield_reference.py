@@ -37,6 +37,7 @@ from sensors.polarimeter import water as wa
 from sensors.polarimeter.rt import reference as rf
 from sensors.polarimeter.rt import table as tb
 from sensors.polarimeter.sky import SkySpec
+from twin.record import provenance as pv
 
 RESULTS = Path(__file__).parent / "results"
 N = tb.TABLE_INDEX
@@ -236,6 +237,7 @@ def main() -> None:
     a = ap.parse_args()
     t0 = time.perf_counter()
     res = {
+        "provenance": pv.provenance(),
         "date": datetime.now(UTC).strftime("%Y-%m-%d"),
         "machine": platform.platform(),
         "photons": a.photons,
@@ -260,6 +262,8 @@ def report(r: dict) -> str:
         f"`python benchmarks/lightfield_reference.py`, {r['date']}, {r['machine']}, "
         f"{r['photons']} histories per run, {r['elapsed_s']:.0f} s. Every number below is "
         "computed by that script.",
+        "",
+        *("- " + x for x in pv.describe(r["provenance"]) if "provenance" in r),
         "",
         "## K_d against Jerlov (shipped tables, sun 30° from the zenith, E_d > 10 % layer)",
         "",
