@@ -22,7 +22,13 @@ from twin.record import provenance as pv
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMNS = ("s0_window", "s0", "aop_dop05", "aop_dop20", "pol")
-HEADS = ("S0 in the window", "S0 anywhere", "AoP, DoP > 0.05", "AoP, DoP > 0.2", "\\|Δ(S1, S2)\\|/S0")
+HEADS = (
+    "S0 in the window",
+    "S0 anywhere",
+    "AoP, DoP > 0.05",
+    "AoP, DoP > 0.2",
+    "\\|Δ(S1, S2)\\|/S0",
+)
 
 
 def _scenes_module():

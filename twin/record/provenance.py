@@ -43,8 +43,9 @@ PACKAGES = (
 #: The key under which Parquet files keep the block (JSON) in their schema metadata.
 PARQUET_KEY = b"auv_twin.provenance"
 _REPO = Path(__file__).resolve().parents[2]
-#: The benchmarks' output folder: changes there do not make the tree dirty (:func:`code_version`).
-_OUTPUTS = "benchmarks/results"
+#: Changes here do not make the tree dirty (:func:`code_version`): the benchmarks' outputs and
+#: the prose (git pathspecs).
+_NOT_INPUTS = (":!benchmarks/results", ":!*.md")
 
 
 def fingerprint(obj: Any) -> str:
@@ -66,8 +67,9 @@ def code_version() -> dict[str, Any]:
 
     The commit is read with ``git`` from the checkout the package runs from; a tree with changes
     to tracked or untracked (not ignored) files is dirty, except under ``benchmarks/results/``
-    (:data:`_OUTPUTS`: what the benchmarks write, never what they read, so one benchmark's fresh
-    table does not mark the next one's run as made from changed code). Cached per process: a
+    and in Markdown files (:data:`_NOT_INPUTS`: what the benchmarks write and the prose, never
+    what a run reads, so one benchmark's fresh table, or a doc edited while a study runs, does
+    not mark a run as made from changed code). Cached per process: a
     campaign worker asks once.
     """
     out: dict[str, Any] = {"auv_twin": _dist_version("auv-twin"), "commit": None, "dirty": None}
@@ -80,7 +82,7 @@ def code_version() -> dict[str, Any]:
             capture_output=True, text=True, timeout=10, env=env, check=True,
         ).stdout.strip()  # fmt: skip
         status = subprocess.run(
-            ["git", "-C", str(_REPO), "status", "--porcelain", "--", ".", f":!{_OUTPUTS}"],
+            ["git", "-C", str(_REPO), "status", "--porcelain", "--", ".", *_NOT_INPUTS],
             capture_output=True, text=True, timeout=30, env=env, check=True,
         ).stdout  # fmt: skip
     except (OSError, subprocess.SubprocessError):
