@@ -35,6 +35,7 @@ from twin.campaign.roia_static import CASES as ROIA_CASES
 from twin.campaign.runner import run_campaign
 from twin.campaign.snell_turntable import CASES, PAPER_DISTORTION_GAIN_DEG, PAPER_MAE_DEG
 from twin.campaign.spec import load_campaign
+from twin.record import provenance as pv
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -195,11 +196,16 @@ def _rel(path: str) -> str:
     return str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)
 
 
+#: campaign name → {one line of code and packages: how many of its runs they made}
+MADE_BY: dict[str, dict[str, int]] = {}
+
+
 def _run(name: str, runs: pathlib.Path, workers: int):
     spec = load_campaign(ROOT / "scenarios" / "campaigns" / f"{name}.toml")
     out = runs / spec.name
     run_campaign(spec, out, workers=workers, progress=True)
     df = load_campaign_results(out)
+    MADE_BY[spec.name] = dict(df.attrs.get("made_by") or {})
     return spec, df[df["status"] == "ok"]
 
 
@@ -273,8 +279,15 @@ def lig_tank(runs: pathlib.Path, workers: int) -> list[str]:
             lines.append(f"| {names[m]} | {q} | {text} | {paper:.1f} | {v / paper:.1f}× |")
     lig = "lig_paper" if ("lig_paper", "zenith") in means else "lig"
     for q in ("azimuth", "zenith"):
-        better = "LIG beats POL" if means[lig, q] < means["pol", q] else "POL beats LIG"
-        lines.append(f"\n{q}: {better} in the twin, {lig} (the paper: LIG beats POL).")
+        # Paired: the same session's frames through both methods.
+        d = df[f"metric.methods.pol.{q}_mae_deg"] - df[f"metric.methods.{lig}.{q}_mae_deg"]
+        d = d.dropna().to_numpy(float)
+        lo, hi = bootstrap_ci(d, np.mean)
+        verdict = "LIG beats POL" if lo > 0 else ("POL beats LIG" if hi < 0 else "not resolved")
+        lines.append(
+            f"\n{q}, {lig} against POL: {verdict} in the twin (POL − LIG per session "
+            f"{np.mean(d):+.2f}° [{lo:+.2f}, {hi:+.2f}]; the paper: LIG beats POL)."
+        )
     lines += [
         "",
         "Where LIG's zenith error comes from, measured by switching one thing at a time "
@@ -376,6 +389,7 @@ def main() -> None:
     ]
     RESULTS.mkdir(parents=True, exist_ok=True)
     sections: list[list[str]] = []
+    report_block = pv.provenance()
     if "snell" in args.only:
         sec, fig = snell(runs, args.workers)
         fig.savefig(RESULTS / "hardware_experiments_snell.png", dpi=110)
@@ -386,6 +400,11 @@ def main() -> None:
         sections.append(lig_tank(runs, args.workers))
     if "sea" in args.only:
         sections.append(sea_trials(runs, args.workers))
+    lines += [f"- This report: {'; '.join(pv.describe(report_block))}"]
+    for name, seen in MADE_BY.items():
+        made = "; ".join(f"{n} runs: {k}" for k, n in seen.items()) or "no provenance"
+        lines.append(f"- Campaign `{name}`, runs made by: {made}")
+    lines.append("")
     path = RESULTS / "hardware_experiments.md"
     old = path.read_text() if path.exists() else ""
     text = splice(old, lines, sections, ORDER)
