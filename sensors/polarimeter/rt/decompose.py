@@ -328,10 +328,14 @@ def histopolation_matrix(
     return out
 
 
+def _apply(op: FloatArray, values: FloatArray, axis: int) -> FloatArray:
+    """The (n, n) matrix ``op`` applied along ``axis`` of ``values``."""
+    return np.moveaxis(np.tensordot(op, np.moveaxis(values, axis, 0), axes=1), 0, axis)
+
+
 def solve_nodes(means: FloatArray, a: FloatArray, axis: int) -> FloatArray:
     """Node values along ``axis`` whose interpolant has bin means ``means`` (A⁻¹ applied)."""
-    inv = np.linalg.inv(a)
-    return np.moveaxis(np.tensordot(inv, np.moveaxis(means, axis, 0), axes=1), 0, axis)
+    return _apply(np.linalg.inv(a), means, axis)
 
 
 def theta_matrix(theta_edges_rad: FloatArray) -> FloatArray:
@@ -376,10 +380,6 @@ def _noise_aware(a: FloatArray, pad: tuple[float, float]) -> FloatArray:
     """
     n = a.shape[0]
     return np.eye(n) + (np.linalg.inv(a) - np.eye(n)) @ smoothing_matrix(n, pad)
-
-
-def _apply(op: FloatArray, values: FloatArray, axis: int) -> FloatArray:
-    return np.moveaxis(np.tensordot(op, np.moveaxis(values, axis, 0), axes=1), 0, axis)
 
 
 def conserve(
