@@ -51,11 +51,7 @@ def _ci_text(x: np.ndarray) -> tuple[str, float, float, float]:
 
 
 def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
-    spec = load_campaign(ROOT / "scenarios" / "campaigns" / "snell_turntable.toml")
-    out = runs / spec.name
-    run_campaign(spec, out, workers=workers, progress=True)
-    df = load_campaign_results(out)
-    df = df[df["status"] == "ok"]
+    spec, df = _run("snell_turntable", runs, workers)
     col = "metric.methods.snell.{}_mae_deg"
     lines = [
         "## Snell-window attitude on a turntable (xin2024 §4, Table 1)",
