@@ -1,11 +1,13 @@
-"""How much the headline results move across the sourced optical inputs' uncertainty (P and δ).
+"""How much the headline results move across the sourced optical inputs' uncertainty (P, δ, sky).
 
     python benchmarks/optics_sensitivity.py [--out benchmarks/results/optics_sensitivity]
 
 For each input at its sourced value and at the ends of its measured range (one input varied at a
 time; :mod:`sensors.polarimeter.scattering` gives the sources) — the particles' peak linear
 polarization P ∈ {0.6, 0.75, 0.9}, the water molecules' depolarization ratio
-δ ∈ {0.0425, 0.044, 0.046} and, for scale, Morel's older δ = 0.09 — an ideal camera, level, at
+δ ∈ {0.0425, 0.044, 0.046} and, for scale, Morel's older δ = 0.09, and the clear sky's CIE
+gradation type ∈ {11, 12, 13} (:mod:`sensors.polarimeter.sky` gives the sources) — an ideal
+camera, level, at
 1, 5 and 10 m, six suns 20–70° in elevation: the mean zenith error of the solar vector of POL
 and of LIG (the paper's method and the twin's variant) in degrees, + = towards the horizon (the
 compass headline of docs/polarimeter.md), and the largest degree of polarization in Snell's
@@ -26,6 +28,7 @@ import numpy as np
 import sensors
 from sensors.polarimeter import scattering as sc
 from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.sky import SkySpec
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import LigCompass, LigPaperCompass
 from twin.onboard.compass.pol import PolCompass
@@ -34,23 +37,35 @@ from twin.record import provenance as pv
 DEPTHS_M = (1.0, 5.0, 10.0)
 ELEVATIONS_DEG = (20.0, 30.0, 40.0, 50.0, 60.0, 70.0)
 P0, D0 = sc.PARTICLE_DOP_MAX, sc.WATER_DEPOLARIZATION_RATIO
-#: (label, P, δ, waters): one input at a time.
+T0 = SkySpec().cie_type
+#: (label, P, δ, CIE sky type, waters): one input at a time.
 SETTINGS = (
-    ("sourced (P 0.75, δ 0.044)", P0, D0, ("I", "II", "3C")),
-    ("P = 0.6", 0.6, D0, ("II", "3C")),
-    ("P = 0.9", 0.9, D0, ("II", "3C")),
+    (f"sourced (P 0.75, δ 0.044, CIE {T0})", P0, D0, T0, ("I", "II", "3C")),
+    ("P = 0.6", 0.6, D0, T0, ("II", "3C")),
+    ("P = 0.9", 0.9, D0, T0, ("II", "3C")),
     # δ only in Jerlov I, whose scattering is all molecular (in II the particles scatter 98 %
     # of b: δ acts on 2 % of its scattering).
-    ("δ = 0.0425", P0, 0.0425, ("I",)),
-    ("δ = 0.046", P0, 0.046, ("I",)),
-    ("δ = 0.09 (Morel 1974)", P0, 0.09, ("I",)),
+    ("δ = 0.0425", P0, 0.0425, T0, ("I",)),
+    ("δ = 0.046", P0, 0.046, T0, ("I",)),
+    ("δ = 0.09 (Morel 1974)", P0, 0.09, T0, ("I",)),
+    # The sky's gradation sets LIG's clear-water bias (docs/polarimeter.md): the clear types
+    # either side of 12, in the water where the window's light is the sky's (I) and in II.
+    ("CIE sky 11", P0, D0, 11, ("I", "II")),
+    ("CIE sky 13", P0, D0, 13, ("I", "II")),
 )
 
 
-def cell(p: float, delta: float, water: str, depth_m: float) -> dict[str, float]:
+def cell(p: float, delta: float, sky: int, water: str, depth_m: float) -> dict[str, float]:
     """POL and LIG mean zenith errors and the window's largest DoP for one setting."""
     cam = sensors.create("polarimeter", "ideal_bin4")
-    cam.configure(OpticsConfig(jerlov_type=water, particle_dop_max=p, depolarization_ratio=delta))
+    cam.configure(
+        OpticsConfig(
+            sky=SkySpec(cie_type=sky),
+            jerlov_type=water,
+            particle_dop_max=p,
+            depolarization_ratio=delta,
+        )
+    )
     cal = cam.calibration()
     rng = np.random.default_rng(0)
     errs: dict[str, list[float]] = {"POL": [], "LIG paper": [], "LIG": []}
@@ -81,11 +96,14 @@ def main() -> None:
     a = p.parse_args()
     block = pv.provenance()
     rows = []
-    for label, pp, dd, waters in SETTINGS:
+    for label, pp, dd, sky, waters in SETTINGS:
         for w in waters:
             for z in DEPTHS_M:
-                r = cell(pp, dd, w, z)
-                rows.append({"setting": label, "P": pp, "delta": dd, "water": w, "depth_m": z, **r})
+                r = cell(pp, dd, sky, w, z)
+                rows.append(
+                    {"setting": label, "P": pp, "delta": dd, "cie_sky_type": sky, "water": w,
+                     "depth_m": z, **r}
+                )  # fmt: skip
                 print(rows[-1], flush=True)
     lines = [
         "# Sensitivity of the headline results to the sourced optical inputs",
