@@ -53,6 +53,7 @@ def _ci_text(x: np.ndarray) -> tuple[str, float, float, float]:
 def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
     spec, df = _run("snell_turntable", runs, workers)
     col = "metric.methods.snell.{}_mae_deg"
+    pcol = "metric.methods.snell_paper.{}_mae_deg"
     lines = [
         "## Snell-window attitude on a turntable (xin2024 §4, Table 1)",
         "",
@@ -61,11 +62,13 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
         "the full",
         "error budget under the paper's conditions and that budget with one part taken away",
         "(twin/campaign/snell_turntable.py states every assumption). Mean over sessions with its",
-        "95 % bootstrap CI; the paper's mean of its 10 sessions beside it.",
+        "95 % bootstrap CI; the paper's mean of its 10 sessions beside it. Each cell's frames go",
+        "through the method as the paper writes it (`snell_paper`) and the twin's refinement",
+        "(`snell`; docs/compass_methods.md lists what differs).",
         "",
-        "| cell | sessions | roll MAE (°) | pitch MAE (°) | yaw MAE (°) | yaw vs truth (°) |"
-        " frames without a fix |",
-        "|---|---|---|---|---|---|---|",
+        "| cell | method | sessions | roll MAE (°) | pitch MAE (°) | yaw MAE (°) |"
+        " yaw vs truth (°) | frames without a fix |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     fig, ax = plt.subplots(figsize=(8, 4))
     width = 0.2
@@ -80,9 +83,18 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
                        label=case if j == 0 else None, color=f"C{i}", capsize=3)  # fmt: skip
         truth, *_ = _ci_text(g[col.format("yaw_truth")].to_numpy(float))
         nofix = int(g["metric.methods.snell.no_fix"].sum())
-        lines.append(f"| {case} | {len(g)} | {' | '.join(cells)} | {truth} | {nofix} |")
+        if pcol.format("roll") in g:
+            pcells = [_ci_text(g[pcol.format(k)].to_numpy(float))[0] for k in AXES]
+            ptruth, *_ = _ci_text(g[pcol.format("yaw_truth")].to_numpy(float))
+            pnofix = int(g["metric.methods.snell_paper.no_fix"].sum())
+            lines.append(
+                f"| {case} | the paper's | {len(g)} | {' | '.join(pcells)} | {ptruth} | {pnofix} |"
+            )
+        lines.append(
+            f"| {case} | the twin's | {len(g)} | {' | '.join(cells)} | {truth} | {nofix} |"
+        )
     lines.append(
-        f"| **paper** | 10 | {PAPER_MAE_DEG['roll']:.2f} | {PAPER_MAE_DEG['pitch']:.2f} | "
+        f"| **paper** | | 10 | {PAPER_MAE_DEG['roll']:.2f} | {PAPER_MAE_DEG['pitch']:.2f} | "
         f"{PAPER_MAE_DEG['yaw']:.2f} | — | — |"
     )
     for j, k in enumerate(("roll", "pitch", "yaw")):
@@ -98,6 +110,11 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
         k: float(np.nanmean(budget[col.format(k)].to_numpy(float))) / PAPER_MAE_DEG[k]
         for k in ("roll", "pitch", "yaw")
     }
+    pratios = {
+        k: float(np.nanmean(budget[pcol.format(k)].to_numpy(float))) / PAPER_MAE_DEG[k]
+        for k in ("roll", "pitch", "yaw")
+        if pcol.format(k) in budget
+    }
     within = all(0.5 <= v <= 2 for v in ratios.values())
     verdict = (
         "within the factor of 2 the issue asks."
@@ -110,6 +127,12 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
         + ", ".join(f"{k} {v:.1f}×" for k, v in ratios.items())
         + f": {verdict}",
         "",
+        "The paper's method ÷ paper with the full budget: "
+        + (", ".join(f"{k} {v:.1f}×" for k, v in pratios.items()) or "not run")
+        + ".",
+        "",
+        *_paired_methods(budget, "snell_paper", "snell", [f"{k}_mae_deg" for k in AXES]),
+        "",
         "Why: the full budget carries the force 5–6 wind down to the tank as Cox–Munk slopes, "
         "which are the open sea's; a φ0.6 m tank has no fetch for its gravity waves, and the "
         "twin has no sourced slope model for one. The paper's figures lie between the flat tank "
@@ -118,6 +141,29 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
         *_snell_ablation(df, col),
     ]
     return lines, fig
+
+
+def _paired_methods(df: pd.DataFrame, paper: str, twin: str, quantities: list[str]) -> list[str]:
+    """The paper's method minus the twin's refinement, per session (the same frames): CI lines."""
+    out = []
+    for q in quantities:
+        a, b = f"metric.methods.{paper}.{q}", f"metric.methods.{twin}.{q}"
+        if a not in df or b not in df:
+            continue
+        d = (df[a] - df[b]).dropna().to_numpy(float)
+        if d.size < 2:
+            continue
+        lo, hi = bootstrap_ci(d, np.mean)
+        verdict = (
+            "the twin's refinement is better"
+            if lo > 0
+            else ("the paper's method is better" if hi < 0 else "not resolved")
+        )
+        out.append(
+            f"- {q}: {paper} − {twin} per session {np.mean(d):+.2f}° [{lo:+.2f}, {hi:+.2f}]: "
+            f"{verdict}."
+        )
+    return out
 
 
 def _paired(df: pd.DataFrame, without: str, with_: str, column: str) -> np.ndarray:
@@ -216,19 +262,32 @@ def roia(runs: pathlib.Path, workers: int) -> list[str]:
         "gives the tank's heading RMSE and, at sea, the solar azimuth RMSE against the Hong Kong",
         "Observatory's — with the heading known, the same error here.",
         "",
-        "| case | depth (m) | sessions | twin RMSE (°) | paper (°) | twin ÷ paper |"
+        "Each frame goes through ROI-A as the paper prints it (`roia_paper`) and the twin's",
+        "refinement (`roia`; docs/compass_methods.md lists what differs).",
+        "",
+        "| case | method | depth (m) | sessions | twin RMSE (°) | paper (°) | twin ÷ paper |"
         " frames without a fix |",
-        "|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|",
     ]
     col = "metric.methods.roia.heading_rmse_deg"
     for case, c in ROIA_CASES.items():
         g = df[df["param.case"] == case]
-        text, m, _, _ = _ci_text(g[col].to_numpy(float))
-        nofix = int(g["metric.methods.roia.no_fix"].sum())
-        lines.append(
-            f"| {case} | {c.depth_m:g} | {len(g)} | {text} | {c.paper_rmse_deg:.2f} | "
-            f"{m / c.paper_rmse_deg:.1f}× | {nofix} |"
+        for method, label in (("roia_paper", "the paper's"), ("roia", "the twin's")):
+            mcol = f"metric.methods.{method}.heading_rmse_deg"
+            if mcol not in g:
+                continue
+            text, m, _, _ = _ci_text(g[mcol].to_numpy(float))
+            nofix = int(g[f"metric.methods.{method}.no_fix"].sum())
+            lines.append(
+                f"| {case} | {label} | {c.depth_m:g} | {len(g)} | {text} | "
+                f"{c.paper_rmse_deg:.2f} | {m / c.paper_rmse_deg:.1f}× | {nofix} |"
+            )
+    lines.append("")
+    for case in ROIA_CASES:
+        paired = _paired_methods(
+            df[df["param.case"] == case], "roia_paper", "roia", ["heading_rmse_deg"]
         )
+        lines += [f"{case}: {x[2:]}" if x.startswith("- ") else x for x in paired]
     sea = [float(np.nanmean(df[df["param.case"] == k][col])) for k in ROIA_CASES if k != "tank"]
     trend = "grows" if all(b > a for a, b in itertools.pairwise(sea)) else "does not grow"
     lines += [
@@ -262,28 +321,34 @@ def lig_tank(runs: pathlib.Path, workers: int) -> list[str]:
     names = {
         "lig_paper": "LIG, the paper's method",
         "lig": "LIG, the twin's refinement",
-        "pol": "POL",
+        "pol_paper": "POL, as the LIG paper describes it",
+        "pol": "POL, the twin's refinement",
     }
-    for m in ("lig_paper", "lig", "pol"):
+    for m in ("lig_paper", "lig", "pol_paper", "pol"):
         for q in ("azimuth", "zenith"):
             col = f"metric.methods.{m}.{q}_mae_deg"
             if col not in df:
                 continue  # runs made before the paper's LIG was in the trial
             text, v, _, _ = _ci_text(df[col].to_numpy(float))
             means[m, q] = v
-            paper = LIG_TANK_PAPER["lig" if m.startswith("lig") else m, q]
+            paper = LIG_TANK_PAPER["lig" if m.startswith("lig") else "pol", q]
             lines.append(f"| {names[m]} | {q} | {text} | {paper:.1f} | {v / paper:.1f}× |")
     lig = "lig_paper" if ("lig_paper", "zenith") in means else "lig"
+    pol = "pol_paper" if ("pol_paper", "zenith") in means else "pol"
     for q in ("azimuth", "zenith"):
         # Paired: the same session's frames through both methods.
-        d = df[f"metric.methods.pol.{q}_mae_deg"] - df[f"metric.methods.{lig}.{q}_mae_deg"]
+        d = df[f"metric.methods.{pol}.{q}_mae_deg"] - df[f"metric.methods.{lig}.{q}_mae_deg"]
         d = d.dropna().to_numpy(float)
         lo, hi = bootstrap_ci(d, np.mean)
         verdict = "LIG beats POL" if lo > 0 else ("POL beats LIG" if hi < 0 else "not resolved")
         lines.append(
-            f"\n{q}, {lig} against POL: {verdict} in the twin (POL − LIG per session "
+            f"\n{q}, {lig} against {pol}: {verdict} in the twin (POL − LIG per session "
             f"{np.mean(d):+.2f}° [{lo:+.2f}, {hi:+.2f}]; the paper: LIG beats POL)."
         )
+    qs = ["azimuth_mae_deg", "zenith_mae_deg"]
+    lines += ["", "The papers' methods against the twin's refinements on the same frames:", ""]
+    lines += _paired_methods(df, "lig_paper", "lig", qs)
+    lines += _paired_methods(df, "pol_paper", "pol", qs)
     lines += [
         "",
         "Where LIG's zenith error comes from, measured by switching one thing at a time "

@@ -362,8 +362,11 @@ class Hardware:
 #: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
 #: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
 #: aids the filter (POL/INS, LIG/INS, ...).
+#: ``<method>_paper`` is the method as its paper writes it; ``<method>`` is the twin's
+#: refinement (docs/compass_methods.md lists the departures and their measured effects).
 NAV_VARIANTS: tuple[str, ...] = (
-    "ins", "lig", "lig_paper", "pol", "roia", "snell", "moi", "patz", "ht",
+    "ins", "lig", "lig_paper", "pol", "pol_paper", "roia", "roia_paper", "snell", "snell_paper",
+    "moi", "patz", "ht",
 )  # fmt: skip
 NAV_TUNINGS: tuple[str, ...] = ("imu", "datasheet", "paper")
 NAV_ALIGNMENTS: tuple[str, ...] = ("paper", "gyrocompass")

@@ -73,9 +73,15 @@ def test_a_turntable_session_on_a_flat_tank_is_accurate_and_deterministic():
     assert 0.0 < s["yaw_mae_deg"] < 1.0
     assert 20.0 < a["sun_elevation_deg"] < 27.0  # a December morning in Dalian
     assert a["tank_wind_mps"] == 0.0 and a["boresight_deg"] > 0.0
+    # The paper's method on the same frames: its own numbers, not a copy of the twin's.
+    q = a["methods"]["snell_paper"]
+    assert q["no_fix"] == 0 and 0.0 < q["roll_mae_deg"] < 5.0
+    assert q["roll_mae_deg"] != s["roll_mae_deg"]
 
 
 def test_a_roia_tank_session_runs(monkeypatch):
     monkeypatch.setattr(roia_static, "FRAMES", 4)
-    m = roia_static.run({"case": "tank", "hardware": "real"}, 0)["methods"]["roia"]
+    out = roia_static.run({"case": "tank", "hardware": "real"}, 0)["methods"]
+    m, q = out["roia"], out["roia_paper"]
     assert m["no_fix"] == 0 and 0.0 < m["heading_rmse_deg"] < 3.0
+    assert q["no_fix"] == 0 and 0.0 < q["heading_rmse_deg"] < 3.0

@@ -98,8 +98,8 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
         cam.draw_unit(unit_rng)
     cal = cam.calibration()
     depth = float(p["depth_m"])
-    # The paper's LIG (eqs. 9–12, every in-window pixel) beside the twin's refinement.
-    methods = {name: create(name) for name in ("lig_paper", "lig", "pol")}
+    # The papers' LIG (eqs. 9–12, every in-window pixel) and POL beside the twin's refinements.
+    methods = {name: create(name) for name in ("lig_paper", "lig", "pol_paper", "pol")}
     err: dict[str, dict[str, list[float]]] = {m: {"azimuth": [], "zenith": []} for m in methods}
     no_fix = dict.fromkeys(methods, 0)
     c = euler_to_dcm(0.0, 0.0, math.radians(-heading0))

@@ -56,7 +56,7 @@ from twin.campaign.trials import StudyTrial
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
-from twin.onboard.compass.snell import SnellWindowMethod
+from twin.onboard.compass.snell import SnellPaperMethod, SnellWindowMethod
 
 LATITUDE_DEG, LONGITUDE_DEG = 38.88028, 121.5106
 #: The paper's Table 1 sessions, local time (UTC+8) on 2023-12-28.
@@ -209,19 +209,30 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     ctx = CompassContext(
         utc, LATITUDE_DEG, LONGITUDE_DEG, depth_m=depth, water_index=cam.n_water, sun_enu=sun
     )
-    snell = SnellWindowMethod()
+    # The paper's method (``snell_paper``) beside the twin's refinement, on the same frames.
+    methods = {"snell": SnellWindowMethod(), "snell_paper": SnellPaperMethod()}
     frames = [("level", 0.0)] + [(axis, t) for axis in ("roll", "pitch") for t in TILTS_DEG]
-    rows = []
+    rows: dict[str, list[tuple[float, float, Any]]] = {name: [] for name in methods}
     for k, (axis, tilt) in enumerate(frames):
         r = tilt if axis == "roll" else 0.0
         pt = tilt if axis == "pitch" else 0.0
         c = euler_to_dcm(math.radians(r), math.radians(pt), math.radians(-heading0))
         raw, _ = cam.render_offline(c, depth, sun, frame_rng, t=float(k))
-        fix = snell.solve(raw, cal, ctx)
-        rows.append((axis, r, pt, fix))
-    level = rows[0][3]
+        for name, method in methods.items():
+            rows[name].append((r, pt, method.solve(raw, cal, ctx)))
+    return {
+        "sun_elevation_deg": math.degrees(math.asin(float(sun[2]))),
+        "tank_wind_mps": wind,
+        "methods": {name: _session(rows[name], heading0) for name in methods},
+        "boresight_deg": cam.unit.boresight_deg() if cam.unit is not None else 0.0,
+    }
+
+
+def _session(rows: list[tuple[float, float, Any]], heading0: float) -> dict[str, float]:
+    """A session's errors: the tilted frames against the turntable, the yaw against level."""
+    level = rows[0][2]
     roll_e, pitch_e, yaw_e, yaw_truth_e, no_fix = [], [], [], [], 0
-    for _axis, r, pt, fix in rows[1:]:
+    for r, pt, fix in rows[1:]:
         if not fix.ok:
             no_fix += 1
             continue
@@ -232,21 +243,14 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             yaw_e.append(abs(_wrap180(fix.heading_deg - level.heading_deg)))
     mean = lambda x: float(np.mean(x)) if x else math.nan  # noqa: E731
     return {
-        "sun_elevation_deg": math.degrees(math.asin(float(sun[2]))),
-        "tank_wind_mps": wind,
-        "methods": {
-            "snell": {
-                "roll_mae_deg": mean(roll_e),
-                "pitch_mae_deg": mean(pitch_e),
-                "yaw_mae_deg": mean(yaw_e),
-                "yaw_truth_mae_deg": mean(yaw_truth_e),
-                "level_yaw_error_deg": abs(_wrap180(level.heading_deg - heading0))
-                if level.ok
-                else math.nan,
-                "no_fix": no_fix + (0 if level.ok else 1),
-            }
-        },
-        "boresight_deg": cam.unit.boresight_deg() if cam.unit is not None else 0.0,
+        "roll_mae_deg": mean(roll_e),
+        "pitch_mae_deg": mean(pitch_e),
+        "yaw_mae_deg": mean(yaw_e),
+        "yaw_truth_mae_deg": mean(yaw_truth_e),
+        "level_yaw_error_deg": abs(_wrap180(level.heading_deg - heading0))
+        if level.ok
+        else math.nan,
+        "no_fix": no_fix + (0 if level.ok else 1),
     }
 
 

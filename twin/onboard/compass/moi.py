@@ -113,6 +113,9 @@ class Liang2020Config:
         ht_min_radius_px: HT: pixels closer than this to the centre do not vote (they vote for a
             wide fan of angles).
         ht_min_peak_contrast: HT: accumulator peak / median below this ⇒ no line ⇒ no fix.
+        ht_peak: HT: ``"centroid"`` — the peak refined to the centroid of the accumulator above
+            half its maximum [ours]; ``"first_max"`` — the first maximum's bin, what
+            ``cv2.HoughLines`` (and the papers' Hough) report.
         patz_window_px: PATZ: radius of the zenith window for the coherence check (the estimate
             itself uses the pixels nearest the principal point).
         patz_min_coherence: PATZ: mean resultant length of the doubled AoP in the window below
@@ -137,6 +140,7 @@ class Liang2020Config:
     ht_resolution_rad: float = math.radians(0.01)
     ht_min_radius_px: float = 4.0
     ht_min_peak_contrast: float = 2.0
+    ht_peak: str = "centroid"
     patz_window_px: float = 8.0
     patz_min_coherence: float = 0.5
     sigma_floor_rad: float = 2e-4
@@ -152,6 +156,10 @@ class Liang2020Config:
             math.isfinite(self.radius_px) and self.radius_px > 2
         ):
             raise ValueError(f"Liang2020Config.radius_px: {self.radius_px!r}; allowed: > 2 or None")
+        if self.ht_peak not in ("centroid", "first_max"):
+            raise ValueError(
+                f"Liang2020Config.ht_peak: {self.ht_peak!r}; allowed: 'centroid', 'first_max'"
+            )
         if not 0 < self.ht_tolerance_rad < _HALF_PI:
             raise ValueError(
                 f"Liang2020Config.ht_tolerance_rad: {self.ht_tolerance_rad!r}; allowed (0, π/2)"
@@ -442,7 +450,7 @@ def _ht(mu: NDArray[np.float32], usable: NDArray[np.bool_], g: _Geometry, cfg: L
     sel = slice(left, right + 1)
     wts = acc[idx[sel]] - 0.5 * top
     offs = k[sel].astype(np.float64)
-    centre = peak + float(np.sum(wts * offs) / np.sum(wts))
+    centre = peak + float(np.sum(wts * offs) / np.sum(wts)) if cfg.ht_peak == "centroid" else peak
     axis = _wrap_line((centre + 0.5) * res)
     line_mu, _ = _line_profile(mu, usable, g, axis)
     hwhm = 0.5 * (right - left + 1) * res

@@ -86,6 +86,8 @@ class PolConfig:
         min_signal_dn: Mean in-window S0 below this ⇒ "too dark".
         min_eigen_gap: κ_2/κ_min below this ⇒ ill-conditioned.
         sigma_floor_rad: Isotropic covariance floor (model error), rad.
+        exclude_saturated: Leave out clipped pixels (their Stokes vector is wrong) [not in the
+            LIG paper's description of POL].
     """
 
     analysis_max_width_px: int = 640
@@ -97,6 +99,7 @@ class PolConfig:
     min_signal_dn: float = 8.0
     min_eigen_gap: float = 1.5
     sigma_floor_rad: float = math.radians(0.5)
+    exclude_saturated: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.analysis_max_width_px, int) and self.analysis_max_width_px >= 16):
@@ -182,7 +185,9 @@ class PolCompass(CompassMethod):
                 n_window,
                 mean_intensity_dn=mean_i,
             )
-        use = core & ~sat & (pol.s0 > 0) & (pol.dop >= cfg.min_dop)
+        use = core & (pol.s0 > 0) & (pol.dop >= cfg.min_dop)
+        if cfg.exclude_saturated:
+            use &= ~sat
         idx = np.flatnonzero(use)
         if idx.size < cfg.min_pixels:
             return no_fix(
@@ -252,6 +257,26 @@ class PolCompass(CompassMethod):
             mean_dop=float(dop.mean()),
             mean_intensity_dn=mean_i,
         )
+
+
+#: POL as the LIG paper describes it (its eqs. 6–7 and Remark 1; ref. [22] itself is not in the
+#: seeds): every in-window pixel's E-vector (no rim margin, no DoP threshold, clipped pixels
+#: kept, no conditioning threshold), Snell + Fresnel compensation, unit constraints. Kept from
+#: the twin: the analysis grid, the sun-above-the-horizon sign (ref. [22]'s rule is not known)
+#: and the too-dark / too-few-pixels guards.
+POL_PAPER = PolConfig(
+    window_margin_rad=0.0, min_dop=0.0, exclude_saturated=False, min_eigen_gap=1.0
+)
+
+
+@register
+class PolPaperCompass(PolCompass):
+    """POL as the LIG paper describes it (:data:`POL_PAPER`); ``pol`` is the twin's."""
+
+    name = "pol_paper"
+
+    def __init__(self, config: PolConfig | None = None, **overrides: object) -> None:
+        super().__init__(config if config is not None else POL_PAPER, **overrides)
 
 
 def _evectors_at(cal: CameraCalibration, aop: NDArray, idx: NDArray) -> NDArray:

@@ -105,6 +105,14 @@ class RoiaConfig:
         min_dop: Pixels with a lower DoP carry no E-vector. [not in the paper]
         min_signal_dn: Median S0 (DN) of the region below which the frame is too dark.
         min_elevation_deg: A solar vector closer to the horizon is refused (sign ambiguous).
+        region: ``"cone"`` — the twin's reading: a cone of ``zenith_radius_deg`` about the true
+            zenith (module docstring); ``"printed"`` — eqs. 6–7 as printed: a pixel circle of
+            radius |(d/2)(π/2 − FOV/2 − β)| (growing with the tilt β) about the zenith's image.
+            (Eq. 5 as printed places the centre with the yaw δ, which is what the method
+            measures, so no configuration can run it; both readings centre on the zenith's
+            image, eq. 5's intent.)
+        weighting: ``"shot_noise"`` — w = DoP²·S0, the inverse AoP variance [ours]; ``"unit"`` —
+            every pixel's E-vector counts once (the paper's cross products).
     """
 
     zenith_radius_deg: float | None = None
@@ -117,8 +125,16 @@ class RoiaConfig:
     min_dop: float = 0.02
     min_signal_dn: float = 20.0
     min_elevation_deg: float = 2.0
+    region: str = "cone"
+    weighting: str = "shot_noise"
 
     def __post_init__(self) -> None:
+        if self.region not in ("cone", "printed"):
+            raise ValueError(f"RoiaConfig.region: {self.region!r}; allowed: 'cone', 'printed'")
+        if self.weighting not in ("shot_noise", "unit"):
+            raise ValueError(
+                f"RoiaConfig.weighting: {self.weighting!r}; allowed: 'shot_noise', 'unit'"
+            )
         checks = [
             ("fov_deg", self.fov_deg, 10.0, 360.0),
             ("n_air", self.n_air, 1.0, 1.1),
@@ -147,6 +163,12 @@ def zenith_radius_rad(calibration: CameraCalibration, fov_deg: float = 185.0) ->
     return float(calibration.theta_of_rho(r_px))
 
 
+def printed_radius_px(calibration: CameraCalibration, beta_rad: float, fov_deg: float) -> float:
+    """Eq. 6 as printed: r = |(d/2)(π/2 − FOV/2 − β)| pixels, d the image diagonal."""
+    d = math.hypot(calibration.width_px, calibration.height_px)
+    return 0.5 * d * abs(math.pi / 2 - math.radians(fov_deg) / 2 - beta_rad)
+
+
 def zenith_crop(
     calibration: CameraCalibration, zen_c: FloatArray, radius: float, margin_px: int = 4
 ) -> tuple[int, int, int, int]:
@@ -168,6 +190,18 @@ def zenith_crop(
     v0 = min(max(math.floor(float(v.min())) - margin_px, 0), h - 2) & ~1
     u1 = max(min(math.ceil(float(u.max())) + margin_px + 1, w), u0 + 2)
     v1 = max(min(math.ceil(float(v.max())) + margin_px + 1, h), v0 + 2)
+    return v0, v1 + (v1 - v0) % 2, u0, u1 + (u1 - u0) % 2
+
+
+def _pixel_box(
+    calibration: CameraCalibration, u: float, v: float, r_px: float, margin_px: int = 4
+) -> tuple[int, int, int, int]:
+    """Rows and columns of the raw frame holding a pixel circle (even bounds, as zenith_crop)."""
+    w, h = calibration.width_px, calibration.height_px
+    u0 = min(max(math.floor(u - r_px) - margin_px, 0), w - 2) & ~1
+    v0 = min(max(math.floor(v - r_px) - margin_px, 0), h - 2) & ~1
+    u1 = max(min(math.ceil(u + r_px) + margin_px + 1, w), u0 + 2)
+    v1 = max(min(math.ceil(v + r_px) + margin_px + 1, h), v0 + 2)
     return v0, v1 + (v1 - v0) % 2, u0, u1 + (u1 - u0) % 2
 
 
@@ -207,7 +241,7 @@ class RoiaMethod(CompassMethod):
         raw, calibration, ctx, sun_enu = frame.raw, frame.calibration, frame.ctx, frame.sun_enu
         el_sun = frame.sun_elevation_rad
         # ---- zenith region (eqs. 4–8) --------------------------------------------------------
-        radius = (
+        radius = radius0 = (
             math.radians(cfg.zenith_radius_deg)
             if cfg.zenith_radius_deg is not None
             else zenith_radius_rad(calibration, cfg.fov_deg)
@@ -225,7 +259,21 @@ class RoiaMethod(CompassMethod):
             )
         # Stokes only around the zenith region: a crop of the mosaic (2×2 phase kept) with a
         # margin for the demosaicing kernel, so its pixels are those of the whole frame's.
-        v0, v1, u0, u1 = zenith_crop(calibration, zen_c, radius)
+        if cfg.region == "printed":
+            # Eqs. 6–7 as printed: a pixel circle whose radius grows with the tilt, about the
+            # zenith's image; its angular size (for eq. 8 and the crop) through the lens model.
+            r_px = printed_radius_px(calibration, beta, cfg.fov_deg)
+            radius = float(calibration.theta_of_rho(r_px))
+            if beta > beta_max + radius0 - radius:  # eq. 8 with eq. 6's radius
+                return no_fix(
+                    self.name,
+                    f"tilt {math.degrees(beta):.1f}° beyond eq. 8's limit with eq. 6's radius",
+                )
+            zu, zv, _ = calibration.project(zen_c[None, :])
+            zu_px, zv_px = float(zu[0]), float(zv[0])
+            v0, v1, u0, u1 = _pixel_box(calibration, zu_px, zv_px, r_px)
+        else:
+            v0, v1, u0, u1 = zenith_crop(calibration, zen_c, radius)
         pol = to_stokes(raw[v0:v1, u0:u1], calibration, cfg.stokes_grid, origin=(u0, v0))
         if cfg.stokes_grid == "superpixel":
             jj, ii = np.arange((u1 - u0) // 2), np.arange((v1 - v0) // 2)
@@ -235,7 +283,10 @@ class RoiaMethod(CompassMethod):
                 np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64)
             )
         rays_c, valid = calibration.pixel_to_ray(uu, vv)
-        region = valid & (rays_c @ zen_c >= math.cos(radius))  # eq. 7 on the sphere
+        if cfg.region == "printed":
+            region = valid & (np.hypot(uu - zu_px, vv - zv_px) <= r_px)  # eq. 7
+        else:
+            region = valid & (rays_c @ zen_c >= math.cos(radius))  # eq. 7 on the sphere
         n_region = int(region.sum())
         if n_region < cfg.min_pixels:
             return no_fix(self.name, f"zenith region has {n_region} pixels < {cfg.min_pixels}")
@@ -254,8 +305,11 @@ class RoiaMethod(CompassMethod):
             )
         d, e = evectors_h(rays_c[use], pol.aop[use], calibration, c_c_h)
         dop = pol.dop[use].astype(np.float64)
-        w0 = dop * dop * pol.s0[use].astype(np.float64)  # 1/σ_ψ² (shot noise)
-        w0 = w0 / w0.mean()
+        if cfg.weighting == "unit":
+            w0 = np.ones_like(dop)
+        else:
+            w0 = dop * dop * pol.s0[use].astype(np.float64)  # 1/σ_ψ² (shot noise)
+            w0 = w0 / w0.mean()
         e_th, e_ph = meridian_basis(d)
         psi_p = np.arctan2(np.sum(e * e_ph, -1), np.sum(e * e_th, -1))  # AoP from the meridian
         a_p = np.arccos(np.clip(d[:, 2], -1.0, 1.0))
@@ -333,3 +387,23 @@ class RoiaMethod(CompassMethod):
         if s[2] < 0:
             s = -s
         return s, np.maximum(lam, 0.0), vecs
+
+
+#: ROI-A as the paper prints it: eqs. 6–7 as printed (``region="printed"``), the solar vector
+#: from the cross products of the pixels' P_air vectors ("P_air of pixel polarized vectors for
+#: cross-product operation", before eq. 19: unweighted, ``iterations=0`` — the superposition's k
+#: enters no estimate), every region pixel with an AoP (``min_dop=0``). Kept from the twin: the
+#: zenith's image as eq. 5's centre (eq. 5 as printed needs the yaw the method measures), the
+#: least-squares form of the cross products, the sun-above-the-horizon sign for eq. 22's 180°
+#: ambiguity, and the too-dark / too-few-pixels guards.
+ROIA_PAPER = RoiaConfig(region="printed", weighting="unit", iterations=0, min_dop=0.0)
+
+
+@register
+class RoiaPaperMethod(RoiaMethod):
+    """ROI-A as Fang et al. (2024) print it (:data:`ROIA_PAPER`); ``roia`` is the twin's."""
+
+    name = "roia_paper"
+
+    def __init__(self, config: RoiaConfig | None = None, **overrides: object) -> None:
+        super().__init__(config if config is not None else ROIA_PAPER, **overrides)

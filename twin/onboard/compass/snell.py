@@ -918,3 +918,31 @@ class SnellWindowMethod(CompassMethod):
             rim_azimuths=wc.rim_azimuths,
             work_binning=binning,
         )
+
+
+#: The Snell-window method as Xin et al. (2024) write it, where a configuration can: the papers'
+#: 2×2 super-pixel Stokes, the plain centroid of the brightest 70 % (§3.2: no rim fit, no
+#: symmetric truncation), the characteristic region out to the window's edge and every pixel
+#: with an AoE (no DoP threshold). Kept from the twin: the working frame binned to 640 px (the
+#: same MAE at both resolutions, benchmarks/results/snell_attitude.md), the fisheye resampling
+#: in place of Zhang's pinhole undistortion (which cannot hold rays past 90°), eq. 15's ½S0
+#: (as printed it has cos 2φ twice), the log-grey reading of "the brightest 70 %", the
+#: filters' and Hough's unstated sizes, the brightness rule for the 180° ambiguity and the
+#: no-window / too-dark guards.
+SNELL_PAPER = SnellConfig(
+    stokes_grid="superpixel",
+    edge_refine=False,
+    symmetric_truncation=False,
+    window_margin_deg=0.0,
+    min_dop=0.0,
+)
+
+
+@register
+class SnellPaperMethod(SnellWindowMethod):
+    """The Snell-window method as Xin et al. (2024) write it (:data:`SNELL_PAPER`)."""
+
+    name = "snell_paper"
+
+    def __init__(self, config: SnellConfig | None = None, **overrides: object) -> None:
+        super().__init__(config if config is not None else SNELL_PAPER, **overrides)
