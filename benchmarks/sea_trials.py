@@ -1,8 +1,8 @@
 """The LIG paper's sea trials in the twin: POL/INS vs LIG/INS heading error at 10 m and 15 m.
 
 Runs scenarios/sea_trial_10m.toml and sea_trial_15m.toml (Weihai, 2021-09-03, the paper's IMU,
-PHX050S-P at 700 µs binned to 612×512, compass at 1 Hz, four paired filter variants: INS,
-POL/INS, LIG/INS with the paper's LIG and with the twin's) in three
+PHX050S-P at 700 µs binned to 612×512, compass at 1 Hz, five paired filter variants: INS,
+POL/INS and LIG/INS, each with the paper's method and with the twin's) in three
 filter set-ups: the paper's (full solar vector, every fix fused: no gate), the twin's default
 (full vector, NIS gate p = 0.999) and the robust one (azimuth only, gated). Writes
 benchmarks/results/sea_trials.{md,json}.
@@ -82,9 +82,10 @@ def main() -> int:
         "roll/pitch RMSE; sun updates applied/rejected by the NIS gate. Run time "
         f"{time.perf_counter() - t0:.0f} s, {time.strftime('%Y-%m-%d')}.",
         "",
-        "| filter set-up | depth | INS only | POL/INS | LIG/INS, the paper's LIG | "
-        "LIG/INS, the twin's LIG | paper POL/INS | paper LIG/INS |",
-        "|---|---|---|---|---|---|---|---|",
+        "| filter set-up | depth | INS only | POL/INS, the LIG paper's POL | POL/INS, the twin's "
+        "POL | LIG/INS, the paper's LIG | LIG/INS, the twin's LIG | paper POL/INS | "
+        "paper LIG/INS |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for u in SETUPS:
         for d in (10, 15):
@@ -114,7 +115,8 @@ def main() -> int:
                 return s
 
             lines.append(
-                f"| {u} | {d} m | {cell('ins')} | {cell('pol')} | {cell('lig_paper')} | "
+                f"| {u} | {d} m | {cell('ins')} | {cell('pol_paper')} | {cell('pol')} | "
+                f"{cell('lig_paper')} | "
                 f"{cell('lig')} | "
                 f"{PAPER[d]['pol']} | {PAPER[d]['lig']} |"
             )
