@@ -19,6 +19,7 @@ import math
 import os
 import pathlib
 import platform
+import re
 import sys
 
 import matplotlib
@@ -471,7 +472,7 @@ def main() -> None:
     lines.append("")
     path = RESULTS / "hardware_experiments.md"
     old = path.read_text() if path.exists() else ""
-    text = splice(old, lines, sections, ORDER)
+    text = splice(old, lines, sections, ORDER, rerun=set(MADE_BY))
     path.write_text(text)
     print(text)
 
@@ -485,14 +486,30 @@ ORDER = (
 )
 
 
-def splice(old: str, header: list[str], new: list[list[str]], order: tuple[str, ...]) -> str:
+def splice(
+    old: str,
+    header: list[str],
+    new: list[list[str]],
+    order: tuple[str, ...],
+    rerun: set[str] = frozenset(),  # type: ignore[assignment]
+) -> str:
     """The report with ``new`` sections in place of theirs and the others kept from ``old``.
 
     A run of some experiments (``--only``) must not drop the others' sections, whose campaigns
-    may be on another machine. Sections are keyed by the start of their ``## `` heading.
+    may be on another machine, nor their provenance: the old header's "runs made by" line of
+    every campaign not in ``rerun`` is kept. Sections are keyed by the start of their ``## ``
+    heading.
     """
     kept: dict[str, str] = {}
     chunks = old.split("\n## ")
+    old_made = [
+        ln
+        for ln in chunks[0].splitlines()
+        if (m := re.match(r"- Campaign `([^`]+)`, runs made by:", ln)) and m.group(1) not in rerun
+    ]
+    if old_made:
+        at = max(i for i, ln in enumerate(header) if ln.startswith("- ")) + 1
+        header = [*header[:at], *old_made, *header[at:]]
     for chunk in chunks[1:]:
         body = "## " + chunk
         key = next((k for k in order if body.startswith(k)), None)

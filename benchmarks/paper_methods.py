@@ -54,6 +54,11 @@ class Frame:
     pitch_deg: float
 
 
+def _fmt(v: object) -> str:
+    """A configuration value as a label shows it (floats to 4 significant digits)."""
+    return f"{v:.4g}" if isinstance(v, float) else repr(v)
+
+
 def _sun(rng: np.random.Generator, lo: float = 20.0, hi: float = 70.0) -> np.ndarray:
     el, az = math.radians(rng.uniform(lo, hi)), rng.uniform(0.0, 2 * math.pi)
     return np.array([math.cos(el) * math.sin(az), math.cos(el) * math.cos(az), math.sin(el)])
@@ -151,7 +156,7 @@ def study(method: str, n: int) -> dict[str, Any]:
     paper, twin, diff = departures(method)
     configs = {"the paper's": paper, "the twin's": twin}
     for name in diff:
-        configs[f"paper + {name} = {getattr(twin, name)!r}"] = dataclasses.replace(
+        configs[f"paper + {name} = {_fmt(getattr(twin, name))}"] = dataclasses.replace(
             paper, **{name: getattr(twin, name)}
         )
     solvers = {label: create(method, config=cfg) for label, cfg in configs.items()}

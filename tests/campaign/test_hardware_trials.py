@@ -85,3 +85,45 @@ def test_a_roia_tank_session_runs(monkeypatch):
     m, q = out["roia"], out["roia_paper"]
     assert m["no_fix"] == 0 and 0.0 < m["heading_rmse_deg"] < 3.0
     assert q["no_fix"] == 0 and 0.0 < q["heading_rmse_deg"] < 3.0
+
+
+def test_a_partial_report_keeps_the_other_sections_and_their_provenance():
+    import importlib.util
+    import pathlib
+
+    path = pathlib.Path(__file__).parents[2] / "benchmarks" / "hardware_experiments.py"
+    spec = importlib.util.spec_from_file_location("hardware_experiments", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    old = "\n".join(
+        [
+            "# R",
+            "",
+            "- This report: old",
+            "- Campaign `snell_turntable`, runs made by: 200 runs: commit aaa",
+            "- Campaign `lig_sea_trials`, runs made by: 40 runs: commit bbb",
+            "",
+            "## Snell-window attitude x",
+            "old snell",
+            "## LIG/INS vs POL/INS sea trials y",
+            "old sea",
+        ]
+    )
+    header = [
+        "# R",
+        "",
+        "- This report: new",
+        "- Campaign `lig_sea_trials`, runs made by: 40 runs: commit ccc",
+        "",
+    ]
+    text = mod.splice(
+        old,
+        header,
+        [["## LIG/INS vs POL/INS sea trials y", "new sea"]],
+        mod.ORDER,
+        rerun={"lig_sea_trials"},
+    )
+    assert "old snell" in text and "new sea" in text and "old sea" not in text
+    assert "snell_turntable`, runs made by: 200 runs: commit aaa" in text
+    assert "commit ccc" in text and "commit bbb" not in text
+    assert text.index("commit aaa") < text.index("## Snell")
