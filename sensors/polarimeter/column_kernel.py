@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.rt.kernel import _reflect_from_below, lut_at, meridian
+from sensors.polarimeter.rt.kernel import lut_at, meridian
 
 
 @njit(cache=True, inline="always")
@@ -208,6 +208,47 @@ def aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom):
 
 
 @njit(cache=True, inline="always")
+def fresnel_up_meridian(cos_i, n_water, si, sq, su):
+    """Light coming up at incidence cosine ``cos_i`` inside Snell's window, reflected by a flat sea.
+
+    In the meridian references of the incident and the reflected light. The plane of incidence of
+    a flat sea is the vertical plane through the light's direction, so both meridian references
+    lie in it: each is the p-axis up to its sign (turned by π, which leaves Q and U as they are),
+    and the reference's general chain (``rt.kernel._reflect_from_below``: into the p-basis,
+    Fresnel, back into the meridian, two atan2-sized rotations) reduces to the
+    Fresnel Mueller matrix itself; ``tests/sensors/polarimeter/test_column_kernel.py`` checks the
+    two agree. Inside the window (cos_i above the critical cosine) there is no total reflection,
+    so r_s, r_p are real and V stays 0.
+    """
+    sin_t2 = n_water * n_water * (1.0 - cos_i * cos_i)
+    cos_t = math.sqrt(max(1.0 - sin_t2, 0.0))
+    rs = (n_water * cos_i - cos_t) / (n_water * cos_i + cos_t)
+    rp = (cos_i - n_water * cos_t) / (cos_i + n_water * cos_t)
+    a = 0.5 * (rp * rp + rs * rs)
+    d = 0.5 * (rp * rp - rs * rs)
+    return a * si + d * sq, d * si + a * sq, rp * rs * su
+
+
+@njit(cache=True, inline="always")
+def _reflected(
+    vx, vy, vz, phi, sign, n_water, tau_c, up, t_out, dphi,
+    single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+):  # fmt: skip
+    """:func:`reflected_at` given the folded azimuth ``phi`` from the sun and its ``sign``."""
+    ui, uq, uu = _lookup(up, t_out, -vz, phi, dphi)
+    uu *= sign
+    if single:
+        si, sq, su = _single(vx, vy, -vz, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
+        ui += si
+        uq += sq
+        uu += su
+    # The upwelling light travels along d = −v' = (−v_x, −v_y, v_z): incidence cosine v_z.
+    ni, nq, nu = fresnel_up_meridian(vz, n_water, ui, uq, uu)
+    t = math.exp(-tau_c / max(vz, 1e-6))
+    return t * ni, t * nq, t * nu
+
+
+@njit(cache=True, inline="always")
 def reflected_at(
     vx, vy, vz, n_water, tau_c, up, t_out, dphi, cphi, sphi,
     single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
@@ -218,9 +259,8 @@ def reflected_at(
     for the table's bins). The upwelling Stokes at the surface, in look direction
     v' = (v_x, v_y, −v_z): ``up`` (the frame's scattered light at the surface, rows from the
     window's edge to the nadir; the table's) plus, if ``single``, the sun beam scattered once
-    (:func:`_single` at c z = ``cz0`` = 0). Reflected with the reference's own
-    :func:`~sensors.polarimeter.rt.kernel._reflect_from_below`, turned into the meridian of the
-    reflected light, times exp(−c z / v_z).
+    (:func:`_single` at c z = ``cz0`` = 0). Reflected (:func:`fresnel_up_meridian`, the
+    reference's reflection in the meridian basis), times exp(−c z / v_z).
     """
     px = vx * cphi + vy * sphi
     py = -vx * sphi + vy * cphi
@@ -229,31 +269,10 @@ def reflected_at(
         py = -py
         sign = -1.0
     phi = _atan2_pos(py, px)
-    ui, uq, uu = _lookup(up, t_out, -vz, phi, dphi)
-    uu *= sign
-    if single:
-        si, sq, su = _single(vx, vy, -vz, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
-        ui += si
-        uq += sq
-        uu += su
-    # The upwelling light travels along d = −v' = (−v_x, −v_y, v_z), in its meridian reference.
-    dx, dy, dz = -vx, -vy, vz
-    rx, ry, rz = meridian(dx, dy, dz)
-    ni, nq, nu, _nv, ndz, nrx, nry, nrz, _esc = _reflect_from_below(
-        dx, dy, dz, rx, ry, rz, ui, uq, uu, 0.0, n_water
-    )
-    # Into the meridian of the reflected light (d = −v), as the reference's tallies score it.
-    mx, my, mz = meridian(dx, dy, ndz)
-    c1 = nrx * mx + nry * my + nrz * mz
-    s1 = (nry * mz - nrz * my) * dx + (nrz * mx - nrx * mz) * dy + (nrx * my - nry * mx) * ndz
-    nrm = c1 * c1 + s1 * s1
-    if nrm > 0.0:
-        c2 = (c1 * c1 - s1 * s1) / nrm
-        s2 = 2.0 * c1 * s1 / nrm
-    else:
-        c2, s2 = 1.0, 0.0
-    t = math.exp(-tau_c / max(vz, 1e-6))
-    return t * ni, t * (c2 * nq + s2 * nu), t * (-s2 * nq + c2 * nu)
+    return _reflected(
+        vx, vy, vz, phi, sign, n_water, tau_c, up, t_out, dphi,
+        single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+    )  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -280,6 +299,8 @@ def scatter_pixels(
     m = x.shape[0]
     do_refl = has_field and up.shape[0] > 1
     do_aur = has_field and apsi.shape[0] > 1
+    # The aureole's outer edge as a cosine, once (aureole_at tests it again, exactly so).
+    cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
     for i in range(m):
         vx = float(x[i])
         vy = float(y[i])
@@ -313,14 +334,15 @@ def scatter_pixels(
             si += ti
             sq += tq
             su += sign * tu
-            if do_aur:
+            if do_aur and vx * sx + vy * sy + vz * sz > cos_aur:
                 ai, aq, au = aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom)
                 si += ai
                 sq += aq
                 su += au
             if do_refl and inside:
-                ri, rq, ru = reflected_at(
-                    vx, vy, vz, n_water, cz, up, t_out, dphi, cphi, sphi,
+                # v and its mirror v' share the azimuth: phi and sign as above.
+                ri, rq, ru = _reflected(
+                    vx, vy, vz, phi, sign, n_water, cz, up, t_out, dphi,
                     single, 0.0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
                 )  # fmt: skip
                 si += ri
