@@ -144,6 +144,13 @@ def snell(runs: pathlib.Path, workers: int) -> tuple[list[str], plt.Figure]:
     return lines, fig
 
 
+def _ratio_text(r: float) -> str:
+    """Twin ÷ paper as the tables print it, and whether it is within a factor of 2."""
+    if not math.isfinite(r):
+        return "—"
+    return f"{r:.1f}×" + ("" if 0.5 <= r <= 2.0 else " (outside ×2)")
+
+
 def _paired_methods(df: pd.DataFrame, paper: str, twin: str, quantities: list[str]) -> list[str]:
     """The paper's method minus the twin's refinement, per session (the same frames): CI lines."""
     out = []
@@ -414,6 +421,38 @@ def sea_trials(runs: pathlib.Path, workers: int) -> list[str]:
         sign = "yes" if lo > 0 else ("no, the reverse" if hi < 0 else "not resolved")
         return f"{what}: {sign} (mean paired difference {np.mean(d):+.2f}° [{lo:+.2f}, {hi:+.2f}])"
 
+    # Twin ÷ paper, each method as the paper runs it and as the twin refines it.
+    lines += [
+        "",
+        "Twin ÷ paper (mean heading RMSE):",
+        "",
+        "| depth (m) | POL/INS, the paper's POL | POL/INS, the twin's | "
+        "LIG/INS, the paper's LIG | LIG/INS, the twin's |",
+        "|---|---|---|---|---|",
+    ]
+    far: list[str] = []
+    for depth in (10.0, 15.0):
+        cells = []
+        for v, fam in (("pol_paper", "pol"), ("pol", "pol"), ("lig_paper", "lig"), ("lig", "lig")):
+            r = rm.get((depth, v), math.nan) / paper[depth, fam]
+            cells.append(_ratio_text(r))
+            if math.isfinite(r) and not 0.5 <= r <= 2.0:
+                far.append(f"{v} at {depth:g} m")
+        lines.append(f"| {depth:g} | {' | '.join(cells)} |")
+    lines += [
+        "",
+        "Outside a factor of 2 of the paper: " + (", ".join(far) if far else "none") + ".",
+    ]
+    for depth in (10.0, 15.0):
+        for paper_v, twin_v in (("pol_paper", "pol"), ("lig_paper", "lig")):
+            if (depth, paper_v) in rm and (depth, twin_v) in rm:
+                lines.append(
+                    "- "
+                    + verdict(
+                        col(depth, twin_v) - col(depth, paper_v),
+                        f"{paper_v} beats {twin_v} at {depth:g} m",
+                    )
+                )
     lines += [
         "",
         "- " + verdict(col(10.0, pol) - col(10.0, lig), f"LIG/INS ({lig}) beats {pol}/INS at 10 m"),
