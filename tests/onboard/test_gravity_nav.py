@@ -156,3 +156,31 @@ def test_on_a_linear_map_sitan_is_the_kalman_filter_and_reaches_the_bound():
         monte_carlo(g, g, path + 50_000.0, MODEL, np.random.default_rng(0))
     with pytest.raises(ValueError, match="runs"):
         monte_carlo(g, g, path, MODEL, np.random.default_rng(0), runs=0)
+
+
+def test_sitan_fits_a_planes_slope_on_and_near_the_maps_edge():
+    # wang2023's normaliser counts nodes the edge cut off as 0 mGal: on a +2 mGal/km plane with
+    # L = 3 it read -18.5 one node in and -29 on the edge. Every edge, corner and window here.
+    g = _grid(lambda e, n: 2e-3 * e - 1e-3 * n + 7.0, nx=21, ny=15)
+    e1, n1 = 20_000.0, 14_000.0
+    spots = [0.0, 1000.0, 2000.0, 3000.0, 10_000.0]
+    pts = [(e, n) for e in spots + [e1 - s for s in spots] for n in spots + [n1 - s for s in spots]]
+    for L in (1, 2, 3, 5, 8):
+        east, north = np.array(pts).T
+        h = sitan_slope(g, east, north, np.full(len(pts), L))
+        np.testing.assert_allclose(h, np.tile([2e-3, -1e-3], (len(pts), 1)), rtol=1e-10)
+
+
+def test_sitan_away_from_the_edge_is_the_papers_expression():
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(30, 30))
+    g = _grid(lambda e, n: v, nx=30, ny=30)
+    for L in (1, 3, 6):
+        i, j = 14, 12
+        right = v[j - L : j + L + 1, i + 1 : i + L + 1].sum()
+        left = v[j - L : j + L + 1, i - L : i].sum()
+        up = v[j + 1 : j + L + 1, i - L : i + L + 1].sum()
+        down = v[j - L : j, i - L : i + L + 1].sum()
+        norm = L * (2 * L + 1) * (L + 1) * 1000.0
+        h = sitan_slope(g, np.array([i * 1000.0]), np.array([j * 1000.0]), np.array([L]))
+        np.testing.assert_allclose(h[0], [(right - left) / norm, (up - down) / norm], rtol=1e-12)

@@ -29,18 +29,61 @@ from twin.onboard.gravity.pcrb import riccati_update
 def sitan_slope(
     grid: GravityGrid, east_m: NDArray, north_m: NDArray, half_window: NDArray
 ) -> NDArray[np.float64]:
-    """Eqs. 36–37 at the nearest nodes of points (N,), windows of half-width L (N,): (N, 2)."""
+    """Eqs. 36–37 at the nearest nodes of points (N,), windows of half-width L (N,): (N, 2).
+
+    Away from the map's edge this is the paper's expression. A window the edge cuts is the same
+    fit over the nodes present: each side's mean over its own nodes, divided by the distance
+    between the two sides' centroids (the paper's normaliser L(2L+1)(L+1)δ counts nodes that are
+    not there, which read as 0 mGal). A side with no node left (the point on the edge) is the
+    centre column or row itself, a one-sided difference. Exact on a plane at any window, on the
+    edge and off it (tests/onboard/test_gravity_nav.py).
+    """
     i, j = grid.nearest_node(east_m, north_m)
     L = np.asarray(half_window, dtype=np.int64)
+    ny, nx = grid.values_mgal.shape
     de, dn = grid.spacing_m
-    rows = (j - L, j + L + 1)
-    cols = (i - L, i + L + 1)
-    right = grid.window_sum(*rows, i + 1, i + L + 1)
-    left = grid.window_sum(*rows, i - L, i)
-    up = grid.window_sum(j + 1, j + L + 1, *cols)
-    down = grid.window_sum(j - L, j, *cols)
-    norm = L * (2 * L + 1) * (L + 1)
-    return np.stack([(right - left) / (norm * de), (up - down) / (norm * dn)], axis=-1)
+    e_slope = _side_difference(grid, i, j, L, nx, ny, along_east=True) / de
+    n_slope = _side_difference(grid, j, i, L, ny, nx, along_east=False) / dn
+    return np.stack([e_slope, n_slope], axis=-1)
+
+
+def _side_difference(
+    grid: GravityGrid,
+    k: NDArray,
+    m: NDArray,
+    L: NDArray,
+    n_along: int,
+    n_across: int,
+    *,
+    along_east: bool,
+) -> NDArray[np.float64]:
+    """(Mean of the + side − mean of the − side) / centroid distance in nodes, along one axis.
+
+    ``k`` indexes the axis the slope is along (``n_along`` nodes), ``m`` the other.
+    """
+    a0 = np.clip(m - L, 0, n_across)
+    a1 = np.clip(m + L + 1, 0, n_across)
+    plus0 = k + 1
+    plus1 = np.minimum(k + L + 1, n_along)
+    edge = plus1 <= plus0  # on the + edge: the centre line stands in
+    plus0 = np.where(edge, k, plus0)
+    plus1 = np.where(edge, k + 1, plus1)
+    minus0 = np.maximum(k - L, 0)
+    minus1 = k.copy()
+    edge = minus1 <= minus0
+    minus0 = np.where(edge, k, minus0)
+    minus1 = np.where(edge, k + 1, minus1)
+
+    def mean(b0: NDArray, b1: NDArray) -> NDArray[np.float64]:
+        if along_east:
+            total = grid.window_sum(a0, a1, b0, b1)
+        else:
+            total = grid.window_sum(b0, b1, a0, a1)
+        return total / ((b1 - b0) * (a1 - a0))
+
+    # Centroid of nodes b0..b1−1, relative to k: (b0 + b1 − 1)/2 − k.
+    dist = 0.5 * ((plus0 + plus1) - (minus0 + minus1))
+    return (mean(plus0, plus1) - mean(minus0, minus1)) / dist
 
 
 def sitan_update(
