@@ -10,7 +10,9 @@ import pytest
 from twin.core.gravity_map import GravityGrid, OffMapError
 from twin.onboard.gravity.paths import bowed, comparison_family, lateral_offset_m, resample
 from twin.onboard.gravity.pcrb import (
+    Q_T_READINGS,
     GainsModel,
+    floor_sum_rmse_m,
     information_map,
     observation_variance,
     pcrb_along,
@@ -20,7 +22,8 @@ from twin.onboard.gravity.planner import UnreachableGoalError, plan
 from twin.onboard.gravity.sitan import sitan_slope
 from twin.scoring.gravity_matching import monte_carlo
 
-MODEL = GainsModel(sigma_mgal=2.0)
+# The recursion's mechanics, with a drift that shows within a few tens of kilometres.
+MODEL = GainsModel(sigma_mgal=2.0, q_rate_m2_per_s=Q_T_READINGS["km2_per_s"])
 
 
 def _grid(values_fn, nx=41, ny=41, d=1000.0) -> GravityGrid:
@@ -184,3 +187,29 @@ def test_sitan_away_from_the_edge_is_the_papers_expression():
         norm = L * (2 * L + 1) * (L + 1) * 1000.0
         h = sitan_slope(g, np.array([i * 1000.0]), np.array([j * 1000.0]), np.array([L]))
         np.testing.assert_allclose(h[0], [(right - left) / norm, (up - down) / norm], rtol=1e-12)
+
+
+def test_one_scalar_look_a_step_cannot_beat_the_ins_floor():
+    rng = np.random.default_rng(2)
+    v = rng.normal(scale=20.0, size=(41, 41))
+    g = _grid(lambda e, n: v)
+    for q in Q_T_READINGS.values():
+        model = GainsModel(sigma_mgal=0.5, q_rate_m2_per_s=q)
+        for _ in range(5):
+            a, b = rng.uniform(2000.0, 38_000.0, (2, 2))
+            path = resample(np.array([a, b]), 100)
+            bound = rmse_bound_m(pcrb_along(g, path, model)).sum()
+            assert bound >= floor_sum_rmse_m(path, model) * (1 - 1e-12)
+
+
+def test_table_2_rules_out_reading_q_t_in_km2_per_s():
+    # wang2023 Test 1 ((58, 73) km to (65, 9) km), 100 points a path: the straight path is the
+    # shortest, so its floor is the least of any path's. Table 2's R = 1 row: Planned 8.1 km,
+    # L6-L9 9.0-10.0 km.
+    direct = resample(np.array([[58_000.0, 73_000.0], [65_000.0, 9_000.0]]), 100)
+    km2 = floor_sum_rmse_m(direct, GainsModel(q_rate_m2_per_s=Q_T_READINGS["km2_per_s"]))
+    printed = floor_sum_rmse_m(direct, GainsModel(q_rate_m2_per_s=Q_T_READINGS["as_printed"]))
+    assert km2 / 1e3 == pytest.approx(12.3, abs=0.05)
+    assert km2 / 1e3 > 10.0 > 8.1  # the paper's best R = 1 sums cannot hold
+    assert printed / 1e3 < 1.02  # the printed reading leaves them room
+    assert GainsModel().q_rate_m2_per_s == Q_T_READINGS["as_printed"]

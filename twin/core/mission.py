@@ -137,7 +137,9 @@ class PlannedMission:
 
     The route is wang2023's PCRB-A* (``twin.onboard.gravity.planner``): the path whose bound on
     the position error, summed over its nodes, is least, with the INS's position variance growing
-    at ``q_rate_m2_per_s`` per axis (the paper's Q_t: (10 m)² per second). The vehicle then flies
+    at ``q_rate_m2_per_s`` per axis (default 100 m²/s: Table 1's Q_t read as km²/s, not the
+    printed m²/s that the paper's own study implies, ``pcrb.Q_T_READINGS``; a navigation-grade INS
+    drifts about that fast, the HG9900 flown here somewhat faster). The vehicle then flies
     the route's nodes as waypoint legs (:meth:`legs_along`).
 
     ``lookahead_m`` is the line-of-sight guidance's look-ahead on those legs; 0 (the default)
