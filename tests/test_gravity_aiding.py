@@ -6,6 +6,7 @@ Real MuJoCo runs, the real synthetic seafloor (harmonica), the real filter.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from pathlib import Path
 
@@ -391,6 +392,12 @@ def test_the_recording_and_the_metrics_have_the_map_the_route_and_the_bound(tmp_
     assert v["map_updates"] >= 2 and v["position_rmse_m"] > 0
     assert v["rmse_over_pcrb"] == pytest.approx(v["position_rmse_m"] / g["pcrb_rms_m"], rel=0.05)
     assert g["arrived_s"] is None and g["goal_miss_m"] is None  # 200 s: still under way
+    # The bound at the declared Q_t and on a grid of rates, growing with the rate.
+    at_q = g["pcrb_rms_m_at_q"]
+    assert g["pcrb_q_rate_m2_per_s"] == 100.0
+    assert at_q["100"] == pytest.approx(g["pcrb_rms_m"], rel=1e-3)
+    vals = list(at_q.values())
+    assert all(a < b for a, b in itertools.pairwise(vals))
     found = _all_entities(tmp_path / "run" / "recording.rrd")
     for entity in (
         "/gravity/map",
@@ -408,3 +415,34 @@ def test_matching_off_plans_on_the_map_but_fuses_nothing():
     assert sim.route is not None and sim.navigators["ins"].matcher is None
     sim.fly(80.0)
     assert sim.navigators["ins"].filter.counts["map"] == 0
+
+
+def test_the_bound_takes_the_true_field_and_a_map_free_arm_has_no_ratio(tmp_path: Path):
+    from twin.app.run import run_scenario
+    from twin.onboard.gravity.pcrb import GainsModel, pcrb_along, rmse_bound_m
+    from twin.scoring.observer import RunScorer
+    from twin.world.gravity_area import field_at_stored_spacing
+
+    s = parse_scenario(PLANNED)
+    sim = build_simulation(s)
+    scorer = RunScorer(sim)
+    sim.observers.append(scorer)
+    sim.fly(120.0)
+    score = scorer.gravity
+    true = field_at_stored_spacing(s, gravity_field(s))
+    assert not np.array_equal(true.values_mgal, sim.stored_map.grid.values_mgal)  # σ_m drawn
+    pts = np.asarray(score.path_m)
+    flown = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    nav = next(iter(sim.navigators.values()))
+    model = GainsModel(
+        speed_mps=flown / (score.t[-1] - score.t[0]),
+        p0_m2=float(max(nav.config.eskf.p0_position_m)) ** 2,
+        q_rate_m2_per_s=100.0,
+        sigma_mgal=math.sqrt(sim.stored_map.variance_mgal2),
+    )
+    want = rmse_bound_m(pcrb_along(true, pts, model, update_spacing_m=min(true.spacing_m)))
+    np.testing.assert_allclose(score.bound_m(sim), want)
+    off = {**PLANNED, "gravity": {**PLANNED["gravity"], "matching": False}}
+    m = run_scenario(parse_scenario(off), tmp_path / "off", camera=False)
+    assert m["gravity"]["variants"]["ins"]["map_updates"] == 0
+    assert m["gravity"]["variants"]["ins"]["rmse_over_pcrb"] is None

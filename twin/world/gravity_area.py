@@ -85,20 +85,29 @@ def launch_on_map(g: Gravity, extent: tuple[float, float, float, float]) -> tupl
     return (e0 + g.launch_km[0] * 1000.0, n0 + g.launch_km[1] * 1000.0)
 
 
-def stored_map(scenario: Scenario, field: GravityGrid, rng: np.random.Generator) -> GravityGrid:
-    """The vehicle's map: the field at the stored spacing plus σ_m per node (module docstring)."""
+def field_at_stored_spacing(scenario: Scenario, field: GravityGrid) -> GravityGrid:
+    """The true field at the stored map's nodes, without the map's error (the bound's map)."""
     g = scenario.gravity
     de = float(min(field.spacing_m))
     k = max(1, round(g.stored_spacing_m / de))
     e, n = field.east_m[::k], field.north_m[::k]
-    values = field.values_mgal[::k, ::k]
     if e.size < 2 or n.size < 2:
         raise ValueError(
             f"gravity.stored_spacing_m: {g.stored_spacing_m:g} leaves fewer than 2 nodes a side "
             f"of a {field.east_m[-1] - field.east_m[0]:g} m map; allowed: smaller"
         )
-    err = g.map_error_mgal * rng.standard_normal(values.shape)
-    return GravityGrid(e, n, values + err, source=f"stored: {field.source}, every {k} node(s)")
+    return GravityGrid(e, n, field.values_mgal[::k, ::k], source=f"{field.source}, every {k}")
+
+
+def stored_map(scenario: Scenario, field: GravityGrid, rng: np.random.Generator) -> GravityGrid:
+    """The vehicle's map: the field at the stored spacing plus σ_m per node (module docstring)."""
+    true = field_at_stored_spacing(scenario, field)
+    err = scenario.gravity.map_error_mgal * rng.standard_normal(true.values_mgal.shape)
+    k = max(1, round(scenario.gravity.stored_spacing_m / float(min(field.spacing_m))))
+    return GravityGrid(
+        true.east_m, true.north_m, true.values_mgal + err,
+        source=f"stored: {field.source}, every {k} node(s)",
+    )  # fmt: skip
 
 
 def route_points_m(scenario: Scenario) -> list[tuple[str, tuple[float, float]]]:
