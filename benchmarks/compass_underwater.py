@@ -29,7 +29,7 @@ from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import LigCompass, LigConfig, LigPaperCompass
-from twin.onboard.compass.pol import PolCompass
+from twin.onboard.compass.pol import PolCompass, PolPaperCompass
 from twin.record import provenance as pv
 
 RESULTS = pathlib.Path(__file__).parent / "results"
@@ -42,7 +42,8 @@ def methods() -> dict[str, object]:
     return {
         "LIG paper": LigPaperCompass(),  # eqs. 9–12 as written, every in-window pixel
         "LIG": LigCompass(),  # the twin's variant (the Jacobian map, margin, SNR threshold)
-        "POL": PolCompass(),
+        "POL paper": PolPaperCompass(),  # as the LIG paper describes ref. [22]: every pixel
+        "POL": PolCompass(),  # the twin's refinement (rim margin, DoP floor, no clipped pixels)
         "LIG-water": LigCompass(LigConfig(sphere="water")),  # variant, diagnosis only
     }
 
@@ -155,7 +156,9 @@ def main() -> None:
         "solar vector in degrees: azimuth MAE / zenith MAE / zenith bias ± its 95 % interval "
         "(mean signed, negative = towards the zenith); no-fix count. `LIG-water` is a diagnostic "
         "variant (normals on the in-water sphere), not the paper's method; `LIG paper` is the "
-        "paper's method as written (`lig_paper`), `LIG` the twin's variant (`lig`)."
+        "paper's method as written (`lig_paper`), `LIG` the twin's variant (`lig`); `POL paper` is "
+        "POL as the LIG paper describes it (`pol_paper`), `POL` the twin's refinement (`pol`); "
+        "docs/compass_methods.md lists what differs."
         f" Run time {elapsed:.0f} s.",
         "",
         "| water | depth m | " + " | ".join(f"{n} az / zen / bias (nofix)" for n in names) + " |",
