@@ -446,3 +446,19 @@ def test_the_bound_takes_the_true_field_and_a_map_free_arm_has_no_ratio(tmp_path
     m = run_scenario(parse_scenario(off), tmp_path / "off", camera=False)
     assert m["gravity"]["variants"]["ins"]["map_updates"] == 0
     assert m["gravity"]["variants"]["ins"]["rmse_over_pcrb"] is None
+
+
+def test_the_benchmark_places_the_bound_at_a_measured_q_by_log_log_interpolation():
+    import importlib.util
+
+    import pandas as pd
+
+    path = Path(__file__).parents[1] / "benchmarks" / "gravity_aided_twin.py"
+    spec = importlib.util.spec_from_file_location("gravity_aided_twin", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    qs = (10.0, 30.0, 100.0, 300.0, 1000.0)
+    # A power law b = 50 q^0.4 is a line in log-log: interpolation is exact between the rates.
+    row = pd.Series({f"metric.gravity.pcrb_rms_m_at_q.{q:g}": 50.0 * q**0.4 for q in qs})
+    assert mod._bound_at(row, 55.0) == pytest.approx(50.0 * 55.0**0.4, rel=1e-12)
+    assert math.isnan(mod._bound_at(row, 5000.0))  # outside the grid: no extrapolation
