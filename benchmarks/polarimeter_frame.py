@@ -10,7 +10,7 @@ the exact chain near Snell's window edge and the sun); the exact chain at every 
 (``fast=False``) is timed too, and how many pixels the fast path rendered exactly. Occlusion is
 timed separately against the open-sea scene (mj_multiRay on the coarse grid).
 
-    OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/polarimeter_frame.py [--repeats N]
+    OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/polarimeter_frame.py [--repeats N] [--baseline REV]
 """
 
 from __future__ import annotations
@@ -20,6 +20,9 @@ import json
 import math
 import os
 import platform
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -29,8 +32,10 @@ import scenarios
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
 from twin.app.simulation import build_simulation
+from twin.record import provenance as pv
 
-RESULTS = Path(__file__).resolve().parent / "results"
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
 SUN = np.array(
     [math.sin(math.radians(40)) * 0.6, math.sin(math.radians(40)) * 0.8, math.cos(math.radians(40))]
 )
@@ -100,10 +105,40 @@ def time_preset(preset: str, repeats: int) -> dict[str, float | str | int]:
     }
 
 
+def _baseline(rev: str, repeats: int) -> dict:
+    """This benchmark as revision ``rev`` ran it, now, on this machine (its own script and code)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = Path(tmp) / "baseline"
+        subprocess.run(
+            ["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree), rev],
+            check=True,
+        )
+        try:
+            env = {**os.environ, "PYTHONPATH": str(tree)}
+            subprocess.run(
+                [sys.executable, "benchmarks/polarimeter_frame.py", "--repeats", str(repeats)],
+                cwd=tree,
+                env=env,
+                check=True,
+                stdout=subprocess.DEVNULL,
+            )
+            return json.loads((tree / "benchmarks/results/polarimeter_frame.json").read_text())
+        finally:
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)], check=False
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument(
+        "--baseline",
+        metavar="REV",
+        help="also time this git revision, in the same session (a temporary worktree), first",
+    )
     args = ap.parse_args()
+    base = _baseline(args.baseline, args.repeats) if args.baseline else None
     rows = [time_preset(p, args.repeats) for p in ("phx050s_p", "phx050s_p_bin4")]
     meta = {
         "machine": platform.platform(),
@@ -113,10 +148,11 @@ def main() -> None:
         "load_average_1_5_15": [round(x, 2) for x in os.getloadavg()],
         "repeats": args.repeats,
         "date": time.strftime("%Y-%m-%d"),
+        "provenance": pv.provenance(),
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "polarimeter_frame.json").write_text(
-        json.dumps({"meta": meta, "rows": rows}, indent=2)
+        json.dumps({"meta": meta, "rows": rows, "baseline": base}, indent=2, default=str)
     )
     lines = [
         "# Polarimeter frame time (one core)",
@@ -125,25 +161,27 @@ def main() -> None:
         f"{meta['machine']}, one core (CPUs {meta['cpu_affinity']}), load average "
         f"{meta['load_average_1_5_15']} (a shared VM: runs vary by up to ±30 %). Level camera, "
         "10 m, Jerlov II, flat sea, sun 40° from the zenith.",
+        f"- {'; '.join(pv.describe(meta['provenance']))}",
         "",
         "| preset | frame | optics, fast path (exact pixels) | optics, exact chain "
         "| sensor (noise, ADC) | whole frame | + occlusion (mj_multiRay, every 8th px) | target |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
+    labelled = [("", r) for r in rows]
+    if base is not None:
+        labelled = [(f" at {args.baseline}", r) for r in base["rows"]] + labelled
+    for tag, r in labelled:
         target = "≤ 100 ms" if r["preset"] == "phx050s_p" else "≤ 10 ms"
         share = f"{r['exact_pixels']} of {r['valid_pixels']} px"
         lines.append(
-            f"| {r['preset']} | {r['shape']} | {r['optics_ms']:.1f} ms ({share}) "
+            f"| {r['preset']}{tag} | {r['shape']} | {r['optics_ms']:.1f} ms ({share}) "
             f"| {r['exact_optics_ms']:.1f} ms | {r['sensor_ms']:.1f} ms "
             f"| {r['frame_ms']:.1f} ms | {r['frame_with_occlusion_ms']:.1f} ms | {target} |"
         )
     lines += [
         "",
-        "Before the fast path (exact chain only, 2026-11-30, same VM): 866.8 ms optics / 890.7 ms "
-        "whole frame at 2448×2048, 45.5 / 50.1 ms at 612×512. The exact-chain column above also "
-        "has this change's faster kernels (OpenCV exp, polynomial float32 arccos, flat-sea sky "
-        "directions in the camera frame).",
+        "Rows marked \"at REV\" are that revision's own benchmark, run in the same session "
+        "just before on the same core (`--baseline REV`): old and new side by side.",
     ]
     (RESULTS / "polarimeter_frame.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
