@@ -10,7 +10,8 @@ the exact chain near Snell's window edge and the sun); the exact chain at every 
 (``fast=False``) is timed too, and how many pixels the fast path rendered exactly. Occlusion is
 timed separately against the open-sea scene (mj_multiRay on the coarse grid).
 
-    OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/polarimeter_frame.py [--repeats N] [--baseline REV]
+    OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/polarimeter_frame.py [--repeats N] \
+        [--baseline REV]
 """
 
 from __future__ import annotations
