@@ -181,7 +181,7 @@ def main() -> None:
         )
     lines += [
         "",
-        "Rows marked \"at REV\" are that revision's own benchmark, run in the same session "
+        'Rows marked "at REV" are that revision\'s own benchmark, run in the same session '
         "just before on the same core (`--baseline REV`): old and new side by side.",
     ]
     (RESULTS / "polarimeter_frame.md").write_text("\n".join(lines) + "\n")
