@@ -89,10 +89,9 @@ _DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm be
 
 # The fast path's rough bands (Polarimeter._render_fast), chosen by measuring its error against the
 # exact chain (tests/sensors/polarimeter/test_render_fast.py, docs/polarimeter.md).
-# Inside the edge: 3 cells. The fast path's worst pixel (benchmarks/fast_path_error.py, eleven
-# scenes) is the same at 2, 3 and 5 cells and 24-57 % off at 0; 5 was needed only while the
-# table had kinks at its node lines near the horizon, since fixed.
-_EDGE_BAND_IN_CELLS = 3.0  # coarse cells inside Snell's window edge (above the horizon in air)
+# Inside the edge: 5 cells. 3 cells give the same worst pixel in benchmarks/fast_path_error.py
+# but break the thin limit's fast-path bounds (S0 2.4e-3, AoP 0.052°: test_light_limits.py).
+_EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the horizon in air)
 _EDGE_BAND_OUT_CELLS = 2.0  # … and outside it
 _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
