@@ -302,28 +302,28 @@ def _seeds_section(seeds: dict[str, dict]) -> list[str]:
     return lines
 
 
+def _sums_table(test: str, rows: dict, with_ci: bool) -> list[str]:
+    """One test's sums of RMSE beside the paper's, a row per R."""
+    names = list(rows["1"]["paths"])
+    lines = ["| R (mGal) | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+    for sigma, row in rows.items():
+        paper = dict(zip(PAPER[test]["names"], PAPER[test][float(sigma)], strict=True))
+        cells = []
+        for k in names:
+            v = row["paths"][k]
+            ci = v.get("ci_km") if with_ci else None
+            ci_txt = f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""
+            cells.append(f"{v['sum_rmse_km']:.1f}{ci_txt} / {paper.get(k, math.nan):g}")
+        lines.append(f"| {sigma} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def _sums_tables(res: dict, with_ci: bool) -> list[str]:
     lines = []
     for test, rows in res.items():
-        names = list(rows["1"]["paths"])
-        lines += [
-            f"### {test}: sum of RMSE (km), twin"
-            + (" [95 % CI over runs]" if with_ci else "")
-            + " / paper",
-            "",
-            "| R (mGal) | " + " | ".join(names) + " |",
-            "|---|" + "---|" * len(names),
-        ]
-        for sigma, row in rows.items():
-            paper = dict(zip(PAPER[test]["names"], PAPER[test][float(sigma)], strict=True))
-            cells = []
-            for k in names:
-                v = row["paths"][k]
-                ci = v.get("ci_km") if with_ci else None
-                ci_txt = f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""
-                cells.append(f"{v['sum_rmse_km']:.1f}{ci_txt} / {paper.get(k, math.nan):g}")
-            lines.append(f"| {sigma} | " + " | ".join(cells) + " |")
-        lines.append("")
+        title = " [95 % CI over runs]" if with_ci else ""
+        lines += [f"### {test}: sum of RMSE (km), twin{title} / paper", ""]
+        lines += [*_sums_table(test, rows, with_ci), ""]
     return lines
 
 
@@ -354,18 +354,8 @@ def report(res, res_km2, seeds, others, tim, figs, grid) -> str:
         lines += [
             f"## {test}: sum of RMSE (km), twin [95 % CI over runs] / paper",
             "",
-            "| R (mGal) | " + " | ".join(names) + " |",
-            "|---|" + "---|" * len(names),
+            *_sums_table(test, rows, with_ci=True),
         ]
-        for sigma, row in rows.items():
-            paper = dict(zip(PAPER[test]["names"], PAPER[test][float(sigma)], strict=True))
-            cells = []
-            for k in names:
-                v = row["paths"][k]
-                ci = v.get("ci_km")
-                ci_txt = f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""
-                cells.append(f"{v['sum_rmse_km']:.1f}{ci_txt} / {paper.get(k, math.nan):g}")
-            lines.append(f"| {sigma} | " + " | ".join(cells) + " |")
         lines += ["", "Sum of the PCRB's √tr P along each path (km):", ""]
         lines += ["| R (mGal) | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
         for sigma, row in rows.items():
