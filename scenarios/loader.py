@@ -245,6 +245,8 @@ HARDWARE_SWITCHES: dict[str, bool] = {"lens_compensation": False, "distortion_co
 GATE_PROBABILITY = Range(0.5, 1.0)
 MAP_SIZE_KM = Range(1.0, 1000.0)
 MAP_SPACING_M = Range(10.0, 20_000.0)
+MAP_CORRELATION_KM = Range(0.01, 1000.0)
+MAP_RANGE_MGAL = Range(0.0, 10_000.0, lo_open=True)
 MAP_POSITION_KM = Range(0.0, 1000.0)
 MAP_ERROR_MGAL = Range(0.0, 100.0)
 TANK_DEPTH_M = Range(0.0, TANK_MAX_DEPTH_M)
@@ -967,6 +969,8 @@ def _gravity(t: _Table | None) -> Gravity | None:
         size_km=t.pair("size_km", MAP_SIZE_KM, default=(40.0, 40.0)),
         spacing_m=t.number("spacing_m", MAP_SPACING_M, default=500.0),
         map_seed=t.integer("map_seed", NON_NEGATIVE, default=0),
+        correlation_km=t.number("correlation_km", MAP_CORRELATION_KM, default=5.0),
+        range_mgal=t.number("range_mgal", MAP_RANGE_MGAL, default=78.0),
         stored_spacing_m=t.number("stored_spacing_m", MAP_SPACING_M, default=1000.0),
         map_error_mgal=t.number("map_error_mgal", MAP_ERROR_MGAL, default=1.7),
         matching=t.boolean("matching", default=True),

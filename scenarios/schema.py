@@ -265,7 +265,7 @@ class Optics:
     particles: str = "marine_snow"
 
 
-GRAVITY_MAPS: tuple[str, ...] = ("none", "seafloor", "wang2023", "file")
+GRAVITY_MAPS: tuple[str, ...] = ("none", "seafloor", "random", "wang2023", "file")
 
 
 @dataclass(frozen=True, slots=True)
@@ -277,14 +277,21 @@ class Gravity:
 
     Attributes:
         map: ``"none"``; ``"seafloor"``: a synthetic abyssal seafloor of ``size_km`` forward
-            modelled at ``spacing_m`` (seeded by ``map_seed``); ``"wang2023"``: the 100 × 100 km
+            modelled at ``spacing_m`` (seeded by ``map_seed``); ``"random"``: a map of
+            ``size_km`` drawn by its statistics (``twin.world.gravity_random``: a Gaussian
+            random field of correlation length ``correlation_km`` scaled to the range
+            ``range_mgal``, seeded by ``map_seed``, each seed an independent map);
+            ``"wang2023"``: the 100 × 100 km
             map of the PCRB study's tests (``twin.world.gravity.wang2023_seafloor``, 1 km);
             ``"file"``: a NetCDF/GeoTIFF grid (``file``, ``variable``) resampled to ``spacing_m``.
         file: Path of the grid file (``map = "file"``), relative to the working directory.
         variable: Its data variable ('' = the only one).
-        size_km: (East, North) extent of a ``"seafloor"`` map.
-        spacing_m: Node spacing of the world's field (``"seafloor"``, ``"file"``).
-        map_seed: Seed of the synthetic seafloor (the area is the same for every run).
+        size_km: (East, North) extent of a ``"seafloor"`` or ``"random"`` map.
+        spacing_m: Node spacing of the world's field (``"seafloor"``, ``"random"``, ``"file"``).
+        map_seed: Seed of the synthetic map (the area is the same for every run).
+        correlation_km: ``"random"``: correlation length L of the covariance exp(−r²/L²)
+            [assumption, 5 km: see ``twin.world.gravity_random``].
+        range_mgal: ``"random"``: the map's max − min (wang2023 §4: 78 mGal).
         launch_km: Where the launch point (the scenario's place, ENU origin) lies on the map
             (East, North, km from the map's lower-left corner); None = the map's centre.
         stored_spacing_m: Node spacing δ of the vehicle's stored map: every k-th node of the
@@ -301,6 +308,8 @@ class Gravity:
     size_km: Vec2 = (40.0, 40.0)
     spacing_m: float = 500.0
     map_seed: int = 0
+    correlation_km: float = 5.0
+    range_mgal: float = 78.0
     launch_km: Vec2 | None = None
     stored_spacing_m: float = 1000.0
     map_error_mgal: float = 1.7

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.rt.kernel import lut_at, meridian
+from sensors.polarimeter.rt.kernel import lut_index, meridian
 
 
 @njit(cache=True, inline="always")
@@ -101,10 +101,13 @@ def _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts):
            + (r0x * e1y - r0y * e1x) * sz)  # fmt: skip
     q1 = (c1 * c1 - s1 * s1) * beam_q
     u1 = -2.0 * c1 * s1 * beam_q
-    beta = lut_at(luts, 0, ct)
-    m12 = lut_at(luts, 1, ct)
-    m22 = lut_at(luts, 2, ct)
-    m33 = lut_at(luts, 3, ct)
+    # lut_at's interpolation, its index found once for the four rows.
+    j, f = lut_index(luts, ct)
+    g0 = 1.0 - f
+    beta = luts[0, j] * g0 + luts[0, j + 1] * f
+    m12 = luts[1, j] * g0 + luts[1, j + 1] * f
+    m22 = luts[2, j] * g0 + luts[2, j + 1] * f
+    m33 = luts[3, j] * g0 + luts[3, j + 1] * f
     oi = 1.0 + m12 * q1
     oq = m12 + m22 * q1
     ou = m33 * u1

@@ -44,6 +44,7 @@ import numpy as np
 from twin.core.earth import POINCARE_PREY_MGAL_PER_M
 from twin.core.earth import RHO_SEAWATER_KG_M3 as RHO_SEAWATER
 from twin.core.gravity_map import GravityGrid
+from twin.world.gravity_random import gaussian_filtered_noise
 
 RHO_CRUST = 2670.0  # kg/m³: Hinze 2003, the standard reduction density
 
@@ -149,13 +150,8 @@ def seafloor_depth(spec: SeafloorSpec, rng: np.random.Generator):
     ee, nn = np.meshgrid(e, n)
     relief = np.zeros_like(ee)
     if spec.hill_rms_m > 0:
-        # Gaussian covariance exp(−r²/w²) ⇔ spectrum ∝ exp(−k²w²/4); filter white noise by its
-        # root and scale to the rms (the same construction as the sea surface's slopes).
-        white = rng.standard_normal(ee.shape)
-        kx = 2 * math.pi * np.fft.fftfreq(e.size, d)
-        ky = 2 * math.pi * np.fft.fftfreq(n.size, d)
-        k2 = ky[:, None] ** 2 + kx[None, :] ** 2
-        hills = np.fft.ifft2(np.fft.fft2(white) * np.exp(-k2 * spec.hill_width_m**2 / 8)).real
+        # Gaussian covariance exp(−r²/w²), scaled to the rms.
+        hills = gaussian_filtered_noise(ee.shape, d, spec.hill_width_m, rng)
         hills *= spec.hill_rms_m / max(float(hills.std()), 1e-12)
         taper = np.ones_like(ee)
         for f in spec.flats:

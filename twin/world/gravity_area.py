@@ -3,7 +3,8 @@
 World side. From the scenario's ``[gravity]`` table:
 
 * :func:`gravity_field`: the true anomaly field (``twin.world.gravity``: a synthetic seafloor
-  forward-modelled with harmonica, the wang2023 study's map, or a grid file), the same for every
+  forward-modelled with harmonica, the wang2023 study's map; ``twin.world.gravity_random``: a map
+  drawn by its statistics; or a grid file), the same for every
   run of the scenario (its own ``map_seed``), cached per process — a campaign worker models a
   seafloor once;
 * :func:`stored_map`: what the vehicle carries — every k-th node of the field (its spacing δ is
@@ -32,6 +33,7 @@ from twin.core.mission import (
     WaypointLeg,
 )
 from twin.world.gravity import SeafloorSpec, anomaly_grid, wang2023_seafloor
+from twin.world.gravity_random import PAD_LENGTHS, RandomFieldSpec, random_anomaly_grid
 
 #: Keep the route this far inside the map's edge: SITAN's slope window and the filter's
 #: uncertainty reach a few nodes around the estimate.
@@ -46,12 +48,24 @@ def _spec(g: Gravity) -> SeafloorSpec:
     )
 
 
+def _random_spec(g: Gravity) -> RandomFieldSpec:
+    return RandomFieldSpec(
+        size_m=(g.size_km[0] * 1000.0, g.size_km[1] * 1000.0),
+        spacing_m=g.spacing_m,
+        correlation_m=g.correlation_km * 1000.0,
+        range_mgal=g.range_mgal,
+    )
+
+
 @functools.lru_cache(maxsize=4)
 def _field_cached(g: Gravity) -> GravityGrid:
     if g.map == "file":
         grid = load_grid(g.file, variable=g.variable or None, spacing_m=g.spacing_m)
         return grid
     rng = np.random.default_rng(g.map_seed)
+    if g.map == "random":
+        grid = random_anomaly_grid(_random_spec(g), rng)
+        return grid.with_values(grid.values_mgal, f"{grid.source} (map_seed {g.map_seed})")
     grid = anomaly_grid(_spec(g), rng)
     kind = "wang2023 map" if g.map == "wang2023" else "synthetic seafloor"
     return grid.with_values(grid.values_mgal, f"{kind} (map_seed {g.map_seed})")
@@ -73,7 +87,7 @@ def field_extent_m(g: Gravity) -> tuple[float, float, float, float] | None:
     """(east0, east1, north0, north1) of the field without building it (None: a file's)."""
     if g.map == "none" or g.map == "file":
         return None
-    spec = _spec(g)
+    spec = _random_spec(g) if g.map == "random" else _spec(g)
     return (0.0, spec.size_m[0], 0.0, spec.size_m[1])
 
 
@@ -170,6 +184,34 @@ def _seafloor_size_problem(g: Gravity) -> str | None:
     )
 
 
+#: The most nodes a random map may draw, padding included (the FFT holds ~50 bytes a node).
+MAX_RANDOM_NODES = 1.6e7
+
+
+def _random_size_problem(g: Gravity) -> str | None:
+    """A random map too coarse for its correlation length or its size, or too big to draw."""
+    sx, sy = (1000.0 * v for v in g.size_km)
+    if g.spacing_m > min(sx, sy) / 2:
+        return (
+            f"gravity.spacing_m: {g.spacing_m:g} leaves fewer than 3 nodes a side of the "
+            f"{sx / 1e3:g} × {sy / 1e3:g} km map; allowed: at most {min(sx, sy) / 2:g} m"
+        )
+    if g.correlation_km * 1000.0 < g.spacing_m:
+        return (
+            f"gravity.correlation_km: {g.correlation_km:g} is shorter than the map's node "
+            f"spacing ({g.spacing_m:g} m, spacing_m); allowed: at least {g.spacing_m / 1e3:g} km"
+        )
+    pad = 2 * PAD_LENGTHS * g.correlation_km * 1000.0
+    nodes = ((sx + pad) / g.spacing_m + 1) * ((sy + pad) / g.spacing_m + 1)
+    if nodes > MAX_RANDOM_NODES:
+        return (
+            f"gravity.spacing_m: {g.spacing_m:g} on a {sx / 1e3:g} × {sy / 1e3:g} km random map "
+            f"(correlation_km {g.correlation_km:g}) draws {nodes:.3g} nodes; allowed: at most "
+            f"{MAX_RANDOM_NODES:.2g}: a larger spacing_m or a smaller size_km"
+        )
+    return None
+
+
 def check_gravity(scenario: Scenario) -> list[str]:
     """Every problem a run would meet with the scenario's gravity, as ``field: message`` lines."""
     g = scenario.gravity
@@ -178,17 +220,21 @@ def check_gravity(scenario: Scenario) -> list[str]:
     if s.gravimeter is not None and g.map == "none":
         problems.append(
             f"sensors.gravimeter: {s.gravimeter!r} measures the gravity field, but the scenario "
-            'has none; set [gravity] map = "seafloor", "wang2023" or "file"'
+            'has none; set [gravity] map = "seafloor", "random", "wang2023" or "file"'
         )
     if isinstance(scenario.mission, PlannedMission) and g.map == "none":
         problems.append(
             "mission.kind: 'planned' plans on the vehicle's gravity map, but the scenario has "
-            'none; set [gravity] map = "seafloor", "wang2023" or "file"'
+            'none; set [gravity] map = "seafloor", "random", "wang2023" or "file"'
         )
     if g.map == "none":
         return problems
     if g.map == "seafloor":
         size_problem = _seafloor_size_problem(g)
+        if size_problem:
+            return [*problems, size_problem]
+    if g.map == "random":
+        size_problem = _random_size_problem(g)
         if size_problem:
             return [*problems, size_problem]
     extent = field_extent_m(g)

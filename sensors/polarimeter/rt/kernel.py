@@ -51,13 +51,19 @@ def lut_at(table, row, cos_theta):
     Shared by this kernel and :mod:`sensors.polarimeter.column_kernel`, so that the reference and
     the renderer read the phase matrix the same way.
     """
+    j, f = lut_index(table, cos_theta)
+    return table[row, j] * (1.0 - f) + table[row, j + 1] * f
+
+
+@njit(cache=True, inline="always")
+def lut_index(table, cos_theta):
+    """The node j and fraction f of :func:`lut_at` at Θ (one square root for all the rows)."""
     k = table.shape[1] - 1
     uu = math.sqrt(max(0.5 - 0.5 * cos_theta, 0.0)) * k
     j = int(uu)
     if j >= k:
         j = k - 1
-    f = uu - j
-    return table[row, j] * (1.0 - f) + table[row, j + 1] * f
+    return j, uu - j
 
 
 @njit(cache=True, inline="always")
