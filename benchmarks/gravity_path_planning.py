@@ -38,7 +38,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from twin.campaign.stats import bootstrap_ci
-from twin.core.gravity_map import GravityGrid
+from twin.core.gravity_map import GravityGrid, OffMapError
 from twin.onboard.gravity.paths import comparison_family, lateral_offset_m, resample
 from twin.onboard.gravity.pcrb import Q_T_READINGS, GainsModel, floor_sum_rmse_m, information_map
 from twin.onboard.gravity.planner import plan
@@ -57,6 +57,8 @@ MAP = RandomFieldSpec()
 SENSITIVITY_LENGTHS_M = (3000.0, 10_000.0, 20_000.0)
 #: Taken when the study starts: the code that ran, not the tree at the end of a long run.
 PROVENANCE = pv.provenance()
+#: A path's entries when it leaves the map (NaN: left out of every statistic).
+OFF_MAP_KEYS = ("sum_rmse_km", "sum_bound_km", "floor_km", "length_km", "lock_lost")
 #: A run has lost lock when its error at the path's end exceeds 3√tr P of the bound there.
 LOCK_SIGMAS = 3.0
 # wang2023 Tables 2–3: sum of RMSE (km) by R (mGal).
@@ -107,10 +109,15 @@ def study(grid: GravityGrid, seed: int, keep_runs: bool, q: float = Q_T_READINGS
             res = {}
             for name, path in paths.items():
                 # Common random numbers: every path sees the same draws (paired comparison).
-                mc = monte_carlo(
-                    grid, grid, path, model, np.random.default_rng(seed), runs=RUNS,
-                    keep_errors=keep_runs,
-                )  # fmt: skip
+                try:
+                    mc = monte_carlo(
+                        grid, grid, path, model, np.random.default_rng(seed), runs=RUNS,
+                        keep_errors=keep_runs,
+                    )  # fmt: skip
+                except OffMapError:
+                    # A parallel path the planned path's bow pushes off this map: not flown.
+                    res[name] = dict.fromkeys(OFF_MAP_KEYS, math.nan)
+                    continue
                 entry = {
                     "sum_rmse_km": mc.sum_rmse_m / 1e3,
                     "sum_bound_km": float(mc.bound_m.sum()) / 1e3,
@@ -153,12 +160,15 @@ def over_seeds(per_seed: list[dict]) -> dict[str, dict]:
                 for k in names
             }
             others = [k for k in names if k != "Planned"]
-            best_other = np.min([sums[k] for k in others], axis=0)
+            best_other = np.nanmin([sums[k] for k in others], axis=0)
             diff = sums["Planned"] - best_other
             lo, hi = bootstrap_ci(diff, np.mean)
-            winners = [min(names, key=lambda k, i=i: sums[k][i]) for i in range(len(per_seed))]
+            winners = [
+                min((k for k in names if np.isfinite(sums[k][i])), key=lambda k, i=i: sums[k][i])
+                for i in range(len(per_seed))
+            ]
             lock = {
-                k: float(np.mean([r[test][sigma]["paths"][k]["lock_lost"] for r in per_seed]))
+                k: float(np.nanmean([r[test][sigma]["paths"][k]["lock_lost"] for r in per_seed]))
                 for k in names
             }
             out[f"{test} R={sigma}"] = {
@@ -167,6 +177,7 @@ def over_seeds(per_seed: list[dict]) -> dict[str, dict]:
                 "winners": {k: winners.count(k) for k in names if winners.count(k)},
                 "planned_minus_best_other_km": [float(np.mean(diff)), lo, hi],
                 "lock_lost": lock,
+                "off_map": {k: int(np.sum(~np.isfinite(sums[k]))) for k in names},
             }
     return out
 
@@ -175,14 +186,21 @@ def findings(res: dict) -> dict[str, bool]:
     f = {}
     for test, rows in res.items():
         for sigma, row in rows.items():
-            sums = {k: v["sum_rmse_km"] for k, v in row["paths"].items()}
+            sums = {
+                k: v["sum_rmse_km"]
+                for k, v in row["paths"].items()
+                if np.isfinite(v["sum_rmse_km"])
+            }
             f[f"{test} R={sigma}: planned smallest"] = min(sums, key=sums.get) == "Planned"
         ranks = [
-            sorted(row["paths"], key=lambda k, r=row: r["paths"][k]["sum_rmse_km"])
+            sorted(
+                (k for k in row["paths"] if np.isfinite(row["paths"][k]["sum_rmse_km"])),
+                key=lambda k, r=row: r["paths"][k]["sum_rmse_km"],
+            )
             for row in rows.values()
         ]
         f[f"{test}: ranking unchanged with R"] = all(r == ranks[0] for r in ranks)
-    t2 = res["Test 2"]["2"]["paths"]
+    t2 = {k: v for k, v in res["Test 2"]["2"]["paths"].items() if np.isfinite(v["sum_rmse_km"])}
     f["Test 2 R=2: Direct worst"] = max(t2, key=lambda k: t2[k]["sum_rmse_km"]) == "Direct"
     return f
 
@@ -232,6 +250,8 @@ def figures(grid: GravityGrid, res: dict) -> list[str]:
             a.set_ylabel("North (km)")
         ax[0].set_title(f"{test}: map, planned (black), Direct (grey), L3… (cyan)")
         for k, v in row["paths"].items():
+            if "rmse_km" not in v:  # off the map
+                continue
             s = np.linspace(0, v["length_km"], len(v["rmse_km"]))
             style = {"Planned": ("k", 2.0), "Direct": ("0.5", 2.0)}.get(k, (None, 0.8))
             ax[2].plot(s, v["rmse_km"], color=style[0], lw=style[1], label=k)
@@ -264,8 +284,8 @@ def _q_section(res: dict, res_km2: dict) -> list[str]:
     ]
     verdict = []
     for test in TESTS:
-        fl = min(v["floor_km"] for v in res[test]["1"]["paths"].values())
-        fk = min(v["floor_km"] for v in res_km2[test]["1"]["paths"].values())
+        fl = float(np.nanmin([v["floor_km"] for v in res[test]["1"]["paths"].values()]))
+        fk = float(np.nanmin([v["floor_km"] for v in res_km2[test]["1"]["paths"].values()]))
         least = min(PAPER[test][1.0])
         lines.append(f"| {test} | {least:g} | {fl:.2f} | {fk:.2f} |")
         if fk > least:
@@ -300,7 +320,8 @@ def _seeds_section(seeds: dict[str, dict]) -> list[str]:
     ]
     for key, v in seeds.items():
         m, lo, hi = v["planned_minus_best_other_km"]
-        worst = max(v["lock_lost"], key=v["lock_lost"].get)
+        flown = {k: x for k, x in v["lock_lost"].items() if np.isfinite(x)}
+        worst = max(flown, key=flown.get)
         win = ", ".join(f"{k} {c}" for k, c in sorted(v["winners"].items(), key=lambda x: -x[1]))
         lines.append(
             f"| {key.replace(' R=', ', ')} | {v['planned_wins']}/{v['seeds']} | "
@@ -354,9 +375,10 @@ def over_maps(per_map: list[dict]) -> dict:
                 sums = [r[test][sigma]["paths"][k]["sum_rmse_km"] for r in per_map]
                 bounds = [r[test][sigma]["paths"][k]["sum_bound_km"] for r in per_map]
                 row[k] = {
-                    "sum_rmse_km": float(np.mean(sums)),
+                    "sum_rmse_km": float(np.nanmean(sums)),
                     "ci_km": list(bootstrap_ci(sums, np.mean)),
-                    "sum_bound_km": float(np.mean(bounds)),
+                    "sum_bound_km": float(np.nanmean(bounds)),
+                    "maps": int(np.sum(np.isfinite(sums))),
                 }
             out[test][sigma] = row
     return out
@@ -399,7 +421,9 @@ def _maps_section(stats: dict[str, dict], n_maps: int, n_sens: int) -> list[str]
 
 
 def _mean_sums_table(test: str, agg: dict) -> list[str]:
+    """Mean sums over the maps [CI] / paper; a path off some maps says on how many it ran."""
     names = list(agg["1"])
+    n_maps = max(v["maps"] for row in agg.values() for v in row.values())
     lines = ["| R (mGal) | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
     for sigma, row in agg.items():
         paper = dict(zip(PAPER[test]["names"], PAPER[test][float(sigma)], strict=True))
@@ -408,7 +432,8 @@ def _mean_sums_table(test: str, agg: dict) -> list[str]:
             v = row[k]
             lo, hi = v["ci_km"]
             pk = paper.get(k, math.nan)
-            cells.append(f"{v['sum_rmse_km']:.1f} [{lo:.1f}, {hi:.1f}] / {pk:g}")
+            few = f" ({v['maps']} maps)" if v["maps"] < n_maps else ""
+            cells.append(f"{v['sum_rmse_km']:.1f} [{lo:.1f}, {hi:.1f}]{few} / {pk:g}")
         lines.append(f"| {sigma} | " + " | ".join(cells) + " |")
     return lines
 
@@ -431,7 +456,7 @@ def _sensitivity_section(sens: dict[str, dict]) -> list[str]:
             cells = []
             for agg in sens.values():
                 row = agg["sums"][test][sigma]
-                fam = min(v["sum_rmse_km"] for k, v in row.items() if k.startswith("L"))
+                fam = np.nanmin([v["sum_rmse_km"] for k, v in row.items() if k.startswith("L")])
                 wins = agg["seeds"][f"{test} R={sigma}"]
                 cells.append(
                     f"{row['Planned']['sum_rmse_km']:.1f} / {row['Direct']['sum_rmse_km']:.1f} / "
