@@ -70,13 +70,17 @@ def _atan2_pos(y, x):
 
 
 @njit(cache=True, inline="always")
-def _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts):
+def _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts, e_a1, e_a2):
     """The refracted beam scattered once into look direction v (meridian reference of d = −v).
 
     Magnitude (water.py eq. 2): β e^(−min(a1, a2)) (1 − e^(−x)) E μ_s / (c |μ_s − v_z|) looking
     up; looking down (v_z <= 0) the line of sight is infinite at any depth, so
     β e^(−a1) E μ_s / (c (μ_s − v_z)) exactly (the clamped v_z of the upward branch gave
-    1 − e^(−x) < 1 there within ~10 µm of the surface).
+    1 − e^(−x) < 1 there within ~10 µm of the surface). ``e_a1`` = e^(−a1) (a1 = c z/μ_s, one
+    per frame) and ``e_a2`` = e^(−a2) (a2 = c z/v_z, v_z > 0; the caller's transmittance to the
+    surface) are the caller's: x = |a2 − a1|, so e^(−min) (1 − e^(−x)) = |e^(−a1) − e^(−a2)|, two
+    exponentials fewer a pixel; within x < 1e-3 of the sun's direction, where the difference
+    cancels, the expm1 form (relative error of the difference form: < 1e-13 elsewhere).
     """
     mx, my, mz = meridian(-vx, -vy, -vz)
     mu_s = max(sz, 1e-3)
@@ -127,10 +131,13 @@ def _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts):
     if vz > 0.0:
         a2 = cz / vz
         dm = max(abs(mu_s - vz), 1e-9)
-        xx = cz * dm / (mu_s * vz)
-        g = math.exp(-min(a1, a2)) * (-math.expm1(-xx)) / dm
+        if abs(a2 - a1) > 1e-3:
+            g = abs(e_a1 - e_a2) / dm
+        else:
+            xx = cz * dm / (mu_s * vz)
+            g = math.exp(-min(a1, a2)) * (-math.expm1(-xx)) / dm
     else:
-        g = math.exp(-a1) / (mu_s - vz)
+        g = e_a1 / (mu_s - vz)
     lss = beta * g * e_sun * mu_s / c
     return lss * oi, lss * (cc * oq + ss * ou), lss * (-ss * oq + cc * ou)
 
@@ -234,20 +241,26 @@ def fresnel_up_meridian(cos_i, n_water, si, sq, su):
 
 @njit(cache=True, inline="always")
 def _reflected(
-    vx, vy, vz, phi, sign, n_water, tau_c, up, t_out, dphi,
+    vx, vy, vz, phi, sign, n_water, t, up, t_out, dphi,
     single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
 ):  # fmt: skip
-    """:func:`reflected_at` given the folded azimuth ``phi`` from the sun and its ``sign``."""
+    """:func:`reflected_at` given the folded azimuth ``phi`` from the sun and its ``sign``.
+
+    ``t`` = exp(−tau_c / max(v_z, 1e-6)), the caller's (the direct light's transmittance too).
+    """
     ui, uq, uu = _lookup(up, t_out, -vz, phi, dphi)
     uu *= sign
     if single:
-        si, sq, su = _single(vx, vy, -vz, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
+        # Looking down (−v_z < 0) only e^(−a1) enters.
+        si, sq, su = _single(
+            vx, vy, -vz, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+            math.exp(-cz0 / max(sz, 1e-3)), 0.0,
+        )  # fmt: skip
         ui += si
         uq += sq
         uu += su
     # The upwelling light travels along d = −v' = (−v_x, −v_y, v_z): incidence cosine v_z.
     ni, nq, nu = fresnel_up_meridian(vz, n_water, ui, uq, uu)
-    t = math.exp(-tau_c / max(vz, 1e-6))
     return t * ni, t * nq, t * nu
 
 
@@ -273,7 +286,7 @@ def reflected_at(
         sign = -1.0
     phi = _atan2_pos(py, px)
     return _reflected(
-        vx, vy, vz, phi, sign, n_water, tau_c, up, t_out, dphi,
+        vx, vy, vz, phi, sign, n_water, math.exp(-tau_c / max(vz, 1e-6)), up, t_out, dphi,
         single, cz0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
     )  # fmt: skip
 
@@ -304,6 +317,7 @@ def scatter_pixels(
     do_aur = has_field and apsi.shape[0] > 1
     # The aureole's outer edge as a cosine, once (aureole_at tests it again, exactly so).
     cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
+    e_a1 = math.exp(-cz / max(sz, 1e-3))  # the beam's attenuation to the camera's depth
     for i in range(m):
         vx = float(x[i])
         vy = float(y[i])
@@ -311,8 +325,12 @@ def scatter_pixels(
         si = 0.0
         sq = 0.0
         su = 0.0
+        # Transmittance from the surface along v (single scattering's a2, the reflection's t).
+        e_a2 = math.exp(-cz / vz) if vz > 0.0 else 0.0
         if single:
-            si, sq, su = _single(vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts)
+            si, sq, su = _single(
+                vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts, e_a1, e_a2
+            )
         if has_field:
             # Rows by cos θ (no acos); this water's window edge mapped onto the table's, linearly
             # in cos θ on either side (the indices differ by < 1 %).
@@ -345,7 +363,7 @@ def scatter_pixels(
             if do_refl and inside:
                 # v and its mirror v' share the azimuth: phi and sign as above.
                 ri, rq, ru = _reflected(
-                    vx, vy, vz, phi, sign, n_water, cz, up, t_out, dphi,
+                    vx, vy, vz, phi, sign, n_water, e_a2, up, t_out, dphi,
                     single, 0.0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
                 )  # fmt: skip
                 si += ri

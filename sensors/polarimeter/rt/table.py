@@ -36,6 +36,7 @@ cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import dataclasses
 import functools
@@ -47,7 +48,7 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -191,6 +192,19 @@ class FrameField:
     def outside_cos(self) -> FloatArray:
         """The cos of :attr:`outside_theta` (descending)."""
         return np.cos(self.outside_theta)
+
+
+class _FrameGrid(NamedTuple):
+    """:attr:`LightFieldTable._grid`: the bins' geometry as the per-frame look-up uses it."""
+
+    n_in: int  # look-zenith bins inside Snell's window
+    tc: float  # the window's edge (rad), a bin edge
+    centres_in: FloatArray  # the inside bins' centres (rad)
+    zenith_first: bool  # the first edge is the zenith
+    nadir_last: bool  # the last edge is the nadir
+    theta_in: FloatArray  # the padded inside rows' look zeniths (rad)
+    theta_out: FloatArray  # … and the outside rows'
+    phi: FloatArray  # the azimuth bins' centres (rad)
 
 
 @dataclass(frozen=True)
@@ -399,7 +413,7 @@ class LightFieldTable:
         i, f = self._node(sun_zenith_water_rad, n_water)
         sun_t = self.remainder
         flat = self.key.wind_speed_mps == 0.0
-        zn = np.radians(self.sun_zenith_water_deg)
+        zn = self._sun_zenith_rad
         th_frame = (1.0 - f) * zn[i] + f * zn[i + 1]
 
         def at(tab: FloatArray, ed: FloatArray, tau: float, warp: bool = True) -> FloatArray:
@@ -433,6 +447,33 @@ class LightFieldTable:
             up=up_grid,
         )
 
+    @functools.cached_property
+    def _grid(self) -> _FrameGrid:
+        """The table's fixed geometry that every frame uses (computed once)."""
+        edges = np.radians(np.asarray(self.theta_edges_deg, dtype=float))
+        n_in = _n_inside(self.theta_edges_deg)
+        thetas = []
+        for e in (edges[: n_in + 1], edges[n_in:]):
+            thetas.append(np.concatenate([[e[0]], 0.5 * (e[1:] + e[:-1]), [e[-1]]]))
+        return _FrameGrid(
+            n_in=n_in,
+            tc=float(edges[n_in]),
+            centres_in=0.5 * (edges[1 : n_in + 1] + edges[:n_in]),
+            zenith_first=bool(edges[0] == 0.0),
+            nadir_last=bool(edges[-1] == math.pi),
+            theta_in=thetas[0],
+            theta_out=thetas[1],
+            phi=(np.arange(self.n_phi) + 0.5) * math.pi / self.n_phi,
+        )
+
+    @functools.cached_property
+    def _planes_list(self) -> list[float]:
+        return [float(p) for p in self.planes]
+
+    @functools.cached_property
+    def _sun_zenith_rad(self) -> FloatArray:
+        return np.radians(self.sun_zenith_water_deg)
+
     def _warp(self, field: FloatArray, th_node: float, th_frame: float) -> FloatArray:
         """A node's field inside Snell's window with its sun moved to this frame's sun.
 
@@ -441,10 +482,8 @@ class LightFieldTable:
         θ' = warp(θ), piecewise linear with warp(0) = 0, warp(θ_frame) = θ_node and
         warp(θ_c) = θ_c. (The aureole is interpolated in the sun's own frame instead.)
         """
-        edges = np.radians(self.theta_edges_deg)
-        n_in = _n_inside(self.theta_edges_deg)
-        tc = float(edges[n_in])
-        c = 0.5 * (edges[1 : n_in + 1] + edges[:n_in])
+        gr = self._grid
+        n_in, tc, c = gr.n_in, gr.tc, gr.centres_in
         src = np.interp(c, [0.0, th_frame, tc], [0.0, th_node, tc])
         out = field.copy()
         k = np.clip(np.searchsorted(c, src) - 1, 0, n_in - 2)
@@ -457,9 +496,9 @@ class LightFieldTable:
         tc_t = math.asin(1.0 / TABLE_INDEX)
         tc = math.asin(1.0 / n_water)
         th = min(max(sun_zenith_water_rad, 0.0), tc) * tc_t / tc
-        zn = np.radians(self.sun_zenith_water_deg)
-        i = int(np.clip(np.searchsorted(zn, th) - 1, 0, len(zn) - 2))
-        return i, float(np.clip((th - zn[i]) / (zn[i + 1] - zn[i]), 0.0, 1.0))
+        zn = self._sun_zenith_rad
+        i = min(max(int(np.searchsorted(zn, th)) - 1, 0), len(zn) - 2)
+        return i, min(max(float((th - zn[i]) / (zn[i + 1] - zn[i])), 0.0), 1.0)
 
     def sky_transmittance(
         self, sky: SkyTable, sun_zenith_water_rad: float, n_water: float = TABLE_INDEX
@@ -471,33 +510,37 @@ class LightFieldTable:
     def _at_depth(self, field: FloatArray, e_down: FloatArray, tau: float) -> FloatArray:
         # Planes no history reached (in weakly scattering water c z = 20 is e^-20 of the surface
         # light) end the table early: past the last reached plane, the asymptotic extrapolation.
-        dark = np.flatnonzero(e_down <= 0)
-        reached = int(dark[0]) if dark.size else len(e_down)
-        p = self.planes[:reached]
-        ed = e_down[:reached]
-        field = field[:reached]
+        values = e_down.tolist()
+        reached = next((j for j, v in enumerate(values) if v <= 0), len(values))
+        p = self._planes_list[:reached]
+        ed = e_down[:reached]  # numpy scalars: the arithmetic in e_down's precision
         if tau >= p[-1]:
             k_inf = math.log(ed[-2] / ed[-1]) / (p[-1] - p[-2])
-            return field[-1] * math.exp(-k_inf * (tau - p[-1]))
-        k = int(np.clip(np.searchsorted(p, tau, side="right") - 1, 0, len(p) - 2))
-        t = (tau - p[k]) / (p[k + 1] - p[k])
+            return field[reached - 1] * math.exp(-k_inf * (tau - p[-1]))
+        k = min(max(bisect.bisect_right(p, tau) - 1, 0), len(p) - 2)
+        # A numpy float64 (not a Python float, which numpy treats as weak): the sum below in
+        # float64, as before the look-up's geometry was cached (bit-identical frames).
+        t = np.float64((tau - p[k]) / (p[k + 1] - p[k]))
         e = math.exp((1 - t) * math.log(ed[k]) + t * math.log(ed[k + 1]))
         return ((1 - t) * field[k] / ed[k] + t * field[k + 1] / ed[k + 1]) * e
 
     def _pad(self, g: FloatArray) -> FrameField:
-        edges = np.radians(self.theta_edges_deg)
+        gr = self._grid
         tc = math.asin(1.0 / TABLE_INDEX)
-        n_in = int(np.argmin(np.abs(edges - tc)))
+        n_in = gr.n_in
         parts = []
-        phi = (np.arange(self.n_phi) + 0.5) * math.pi / self.n_phi
-        for rows, e in ((g[:n_in], edges[: n_in + 1]), (g[n_in:], edges[n_in:])):
+        phi = gr.phi
+        for rows, theta, zenith, nadir in (
+            (g[:n_in], gr.theta_in, gr.zenith_first, False),
+            (g[n_in:], gr.theta_out, False, gr.nadir_last),
+        ):
             first, last = rows[:1].copy(), rows[-1:].copy()
             # At the zenith and the nadir the light has one radiance and one polarization: the
             # ring's mean I, and the m = 2 harmonic of (Q, U) that a fixed polarization has in
             # the meridian frame.
-            if e[0] == 0.0:
+            if zenith:
                 first = _pole(rows[0], phi)[None]
-            if e[-1] == math.pi:
+            if nadir:
                 last = _pole(rows[-1], phi)[None]
             r = np.concatenate([first, rows, last], axis=0)
             lo = r[:, :1].copy()
@@ -505,7 +548,6 @@ class LightFieldTable:
             hi = r[:, -1:].copy()
             hi[..., 2] *= -1.0
             grid = np.ascontiguousarray(np.concatenate([lo, r, hi], axis=1))
-            theta = np.concatenate([[e[0]], 0.5 * (e[1:] + e[:-1]), [e[-1]]])
             parts.append((grid, theta))
         (gin, tin), (gout, tout) = parts
         return FrameField(gin, tin, gout, tout, tc, math.pi / self.n_phi)

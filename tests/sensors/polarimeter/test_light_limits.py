@@ -165,7 +165,7 @@ def test_thin_limit_is_the_exact_chain_plus_the_reflected_upwelling_light(fast, 
             m = window & (want[..., 0] > 0)
             worst = np.maximum(worst, _compare(got, want, m))
             reflected_share = max(
-                reflected_share, float(((want - direct)[..., 0] / want[..., 0])[m].max())
+                reflected_share, float(((want - direct)[..., 0][m] / want[..., 0][m]).max())
             )
     assert worst[0] < bounds[0] and worst[1] < bounds[1] and worst[2] < bounds[2], worst
     # Not vacuous: near the window's edge the reflected light is a few per cent of the window's.
