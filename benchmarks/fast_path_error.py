@@ -32,6 +32,9 @@ HEADS = (
 
 
 def _scenes_module():
+    # The package first: tests/sensors would otherwise shadow the project's sensors package.
+    import sensors.polarimeter.render  # noqa: F401
+
     sys.path.insert(0, str(ROOT / "tests"))
     sys.path.insert(0, str(ROOT / "tests" / "sensors" / "polarimeter"))
     import test_render_fast
