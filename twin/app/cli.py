@@ -80,6 +80,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             progress=not args.quiet,
             camera=False if args.no_camera else None,
             timeseries=args.timeseries,
+            mcap=args.mcap,
         )
     except KeyboardInterrupt:
         print(f"\ninterrupted: partial recording and metrics in {out}", file=sys.stderr)
@@ -92,6 +93,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"metrics:   {out / 'metrics.json'}")
     if args.timeseries:
         print(f"series:    {out / 'timeseries'}/*.parquet")
+    if args.mcap:
+        print(f"mcap:      {out / 'run.mcap'}  (ROS 2 messages; opens in Foxglove)")
     return 0
 
 
@@ -208,6 +211,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also write the time series (truth, readings, filters, compass fixes) as Parquet "
         "in OUT/timeseries/",
+    )
+    r.add_argument(
+        "--mcap",
+        action="store_true",
+        help="also write the run as ROS 2 messages (IMU, pressure, the raw polarization mosaic, "
+        "odometry of the truth and each filter, compass fixes, /tf) in OUT/run.mcap",
     )
     r.set_defaults(func=_cmd_run)
 

@@ -32,6 +32,8 @@ import numpy as np
 from scenarios.schema import Scenario
 from twin.app.simulation import Simulation, build_simulation
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
+from twin.record.mcap_log import FILE as MCAP_FILE
+from twin.record.mcap_log import McapLog
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
 from twin.record.provenance import fingerprint, provenance
 from twin.record.recorder import Recorder, compact, default_blueprint
@@ -116,6 +118,7 @@ def run_scenario(
     record: bool = True,
     on_scored: Callable[[RunScorer], None] | None = None,
     timeseries: bool = False,
+    mcap: bool = False,
 ) -> dict[str, Any]:
     """Run one sea trial and write its recording and metrics.
 
@@ -130,6 +133,8 @@ def run_scenario(
         on_scored: Called with the run's scorer when the run ends (per-run time series).
         timeseries: Also write the run's time series as Parquet in ``out_dir/timeseries/``
             (:mod:`twin.record.timeseries`), also when the run stops early.
+        mcap: Also write the run as ROS 2 messages in ``out_dir/run.mcap``
+            (:mod:`twin.record.mcap_log`), finished also when the run stops early.
 
     Returns:
         The metrics dict (also written to ``out_dir/metrics.json``).
@@ -158,6 +163,7 @@ def run_scenario(
     rec: Recorder | None = None
     cam: ChaseCamera | None = None
     series: TimeSeriesWriter | None = None
+    mcap_log: McapLog | None = None
     scorer = RunScorer(world)
     notes: list[str] = []
     status_text = "starting"
@@ -195,11 +201,16 @@ def run_scenario(
                 cam = None
         recorder = RunRecorder(rec, world, scorer, cam) if rec is not None else None
         series = TimeSeriesWriter(world, scorer, scenario.start_utc) if timeseries else None
+        if mcap:
+            mcap_log = McapLog(
+                out / MCAP_FILE, world, scorer, scenario.start_utc, base["provenance"]
+            )
         # The recorder and the series read what the scorer just computed: the scorer goes first.
         world.observers[:] = (
             [scorer]
             + ([recorder] if recorder is not None else [])
             + ([series] if series is not None else [])
+            + ([mcap_log] if mcap_log is not None else [])
         )
         status_text = "running"
         bar = _progress(scenario.duration_s, progress)
@@ -219,6 +230,8 @@ def run_scenario(
         if cam is not None:
             cam.close()
         world.observers.clear()
+        if mcap_log is not None:
+            mcap_log.close()
         if rec is not None:
             try:
                 rec.log_text(
@@ -245,6 +258,8 @@ def run_scenario(
         if series is not None:
             files = series.write(out, base["provenance"])
             metrics["timeseries"] = [str(p.relative_to(out)) for p in files]
+        if mcap_log is not None:
+            metrics["mcap"] = {"file": MCAP_FILE, "messages": mcap_log.counts}
         _write_json_atomic(metrics_path, metrics)
         if rec is not None and recording_error is None:
             # Last, so that a Ctrl-C here leaves the metrics written and the recording whole.
