@@ -139,6 +139,11 @@ class DepthErrors:
     noise_pa: float
 
 
+def depth_from_pressure(pressure_pa: float, p_atm_pa: float, rho: float, g: float) -> float:
+    """The firmware's depth (m, positive down) from absolute pressure: (P − P_atm) / (ρ g)."""
+    return (pressure_pa - p_atm_pa) / (rho * g)
+
+
 @register
 class DepthGauge(Sensor):
     """A pressure depth gauge at an MJCF site: channels ``pressure_pa`` and ``depth_m``.
@@ -202,6 +207,10 @@ class DepthGauge(Sensor):
 
     def to_depth_m(self, pressure_pa: float, world: WorldView) -> float:
         """The firmware's conversion d = (P − P_atm) / (ρ g) with the declared constants."""
+        return depth_from_pressure(pressure_pa, *self.firmware_constants(world))
+
+    def firmware_constants(self, world: WorldView) -> tuple[float, float, float]:
+        """(P_atm, ρ, g) the firmware converts with: the declared ones, else the world's."""
         s = self.spec
         rho = s.declared_density_kg_m3
         g = s.declared_gravity_mps2
@@ -212,7 +221,7 @@ class DepthGauge(Sensor):
             g = world.gravity_mps2
         if p_atm is None:
             p_atm = world.atmospheric_pressure_pa
-        return (pressure_pa - p_atm) / (rho * g)
+        return float(p_atm), float(rho), float(g)
 
     def sample(self, world: WorldView, rng: np.random.Generator) -> dict[str, np.ndarray]:
         """Measure now: ``pressure_pa`` and ``depth_m`` with all errors applied."""

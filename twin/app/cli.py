@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -95,6 +96,56 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"series:    {out / 'timeseries'}/*.parquet")
     if args.mcap:
         print(f"mcap:      {out / 'run.mcap'}  (ROS 2 messages; opens in Foxglove)")
+    return 0
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    with held():  # heavy: when running
+        from twin.app.replay import LogError, replay
+        from twin.core.calibration import calibration_from_dict
+
+    sc = None
+    if args.scenario:
+        try:
+            sc = scenarios.load(args.scenario)
+        except FileNotFoundError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        except ScenarioError as exc:
+            print(f"error: scenario {args.scenario} is invalid\n{exc}", file=sys.stderr)
+            return 2
+    topics: dict[str, str] = {}
+    for item in args.topic or []:
+        role, sep, topic = item.partition("=")
+        if not sep or not role or not topic.startswith("/"):
+            print(f"error: --topic {item!r}: allowed: ROLE=/topic, e.g. imu=/imu", file=sys.stderr)
+            return 2
+        topics[role] = topic
+    cal = None
+    if args.calibration:
+        try:
+            cal = calibration_from_dict(json.loads(Path(args.calibration).read_text()))
+        except (OSError, ValueError, TypeError) as exc:
+            print(f"error: --calibration {args.calibration}: {exc}", file=sys.stderr)
+            return 2
+    out = Path(args.out) if args.out else Path(args.log).with_suffix("").parent / "replay"
+    if writable_out(out) is None:
+        return 2
+    try:
+        metrics = replay(args.log, out, scenario=sc, topics=topics, calibration=cal)
+    except (LogError, ScenarioError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for name, nav in metrics["navigation"]["variants"].items():
+        if nav.get("samples"):
+            print(
+                f"{name:>14}: heading RMSE {nav['heading_rmse_deg']:.3f} deg, final position "
+                f"error {nav['position_drift_final_m']:.1f} m ({nav['samples']} samples)"
+            )
+    if not metrics["scored"]:
+        print("no reference topic in the log: the estimates are written, not scored")
+    print(f"metrics:   {out / 'metrics.json'}")
+    print(f"series:    {out / 'timeseries'}/*.parquet")
     return 0
 
 
@@ -219,6 +270,26 @@ def build_parser() -> argparse.ArgumentParser:
         "odometry of the truth and each filter, compass fixes, /tf) in OUT/run.mcap",
     )
     r.set_defaults(func=_cmd_run)
+
+    rp = sub.add_parser(
+        "replay",
+        help="run the onboard filters and compass methods on a recorded MCAP or rosbag2 log",
+    )
+    rp.add_argument("log", help="an MCAP file (a twin run's run.mcap) or a rosbag2 folder")
+    rp.add_argument(
+        "--scenario", help="the scenario whose [navigation] runs (default: the log's own)"
+    )
+    rp.add_argument("--out", help="output folder (default: replay/ beside the log)")
+    rp.add_argument(
+        "--topic",
+        action="append",
+        metavar="ROLE=TOPIC",
+        help="map a role (imu, depth, polarimeter, reference) to a topic; repeatable",
+    )
+    rp.add_argument(
+        "--calibration", help="the camera's calibration as JSON (default: the log's own)"
+    )
+    rp.set_defaults(func=_cmd_replay)
 
     render.add_parser(sub)
 

@@ -316,6 +316,41 @@ def plan_route(
     return plan(stored.grid, start, goal, model)
 
 
+def navigator_config(scenario: Scenario, imu_spec: Any) -> NavigatorConfig:
+    """The filter variants' configuration: the scenario's ``[navigation]`` and the IMU's grade.
+
+    Shared by the simulation and ``auv-twin replay`` (a log replayed under the same scenario
+    runs the same filters).
+    """
+    nav = scenario.navigation
+    # The world's gravity does not change with depth (sensors/imu.py): the vehicle's INS is
+    # given the same model, so that the twin has no gravity-model error of its own.
+    ins = InsConfig(free_air_gravity=False)
+    grade = _imu_grade(imu_spec)
+    eskf = (
+        EskfConfig(gate_probability=nav.gate_probability, ins=ins)
+        if nav.tuning == "paper"
+        else EskfConfig.for_imu(
+            grade,
+            gate_probability=nav.gate_probability,
+            ins=ins,
+            datasheet_only=nav.tuning == "datasheet",
+        )
+    )
+    if nav.alignment == "gyrocompass":
+        # The loader refused an IMU that cannot gyrocompass here (check_navigation).
+        tilt, heading = gyrocompass_sigma(grade, math.radians(scenario.place.latitude_deg))
+        eskf = dataclasses.replace(eskf, p0_attitude_rad=(tilt, tilt, heading))
+    return NavigatorConfig(
+        map_aiding=scenario.gravity.matching,
+        compass_rate_hz=nav.compass_rate_hz,
+        gravity_aiding=nav.gravity_aiding,
+        depth_aiding=nav.depth_aiding,
+        sun_azimuth_only=nav.sun_measurement == "azimuth",
+        eskf=eskf,
+    )
+
+
 def _navigators(
     scenario: Scenario,
     plant: Plant,
@@ -331,33 +366,7 @@ def _navigators(
     nav = scenario.navigation
     if not nav.variants:
         return {}
-    imu = suite["imu"].spec
-    # The world's gravity does not change with depth (sensors/imu.py): the vehicle's INS is
-    # given the same model, so that the twin has no gravity-model error of its own.
-    ins = InsConfig(free_air_gravity=False)
-    grade = _imu_grade(imu)
-    eskf = (
-        EskfConfig(gate_probability=nav.gate_probability, ins=ins)
-        if nav.tuning == "paper"
-        else EskfConfig.for_imu(
-            grade,
-            gate_probability=nav.gate_probability,
-            ins=ins,
-            datasheet_only=nav.tuning == "datasheet",
-        )
-    )
-    if nav.alignment == "gyrocompass":
-        # The loader refused an IMU that cannot gyrocompass here (check_navigation).
-        tilt, heading = gyrocompass_sigma(grade, math.radians(scenario.place.latitude_deg))
-        eskf = dataclasses.replace(eskf, p0_attitude_rad=(tilt, tilt, heading))
-    cfg = NavigatorConfig(
-        map_aiding=scenario.gravity.matching,
-        compass_rate_hz=nav.compass_rate_hz,
-        gravity_aiding=nav.gravity_aiding,
-        depth_aiding=nav.depth_aiding,
-        sun_azimuth_only=nav.sun_measurement == "azimuth",
-        eskf=eskf,
-    )
+    cfg = navigator_config(scenario, suite["imu"].spec)
     tr = plant.truth()
     c_init = quat_to_dcm(tr.quat_wxyz)  # C_b^n, perturbed below
     vel, lat, lon = tr.velocity_n, tr.latitude_rad, tr.longitude_rad

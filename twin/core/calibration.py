@@ -22,7 +22,7 @@ direction in the plane ⟂ to the ray whose projection onto the sensor plane mak
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Literal
 
 import numpy as np
@@ -255,3 +255,37 @@ class CameraCalibration:
     def c_c_b(self) -> FloatArray:
         """C_c^b as an array."""
         return np.asarray(self.mount_rotation, dtype=np.float64)
+
+
+def calibration_to_dict(cal: CameraCalibration) -> dict:
+    """Every field of a calibration as plain JSON values (what a log carries; exact floats)."""
+    out: dict = {}
+    for f in fields(cal):
+        if f.name.startswith("_"):
+            continue
+        v = getattr(cal, f.name)
+        out[f.name] = np.asarray(v).tolist() if isinstance(v, tuple | list | np.ndarray) else v
+    return out
+
+
+def calibration_from_dict(d: dict) -> CameraCalibration:
+    """The inverse of :func:`calibration_to_dict` (nested lists back to tuples).
+
+    Raises:
+        ValueError: An unknown field, or a value the calibration refuses (naming the field).
+    """
+    names = {f.name for f in fields(CameraCalibration) if not f.name.startswith("_")}
+    unknown = sorted(set(d) - names)
+    if unknown:
+        raise ValueError(
+            f"camera calibration: unknown field(s) {unknown}; allowed: {sorted(names)}"
+        )
+
+    def tup(v: object) -> object:
+        return tuple(tup(x) for x in v) if isinstance(v, list) else v
+
+    kw = {k: tup(v) for k, v in d.items()}
+    for k in ("width_px", "height_px", "saturation_dn"):
+        if k in kw and isinstance(kw[k], float) and float(kw[k]).is_integer():
+            kw[k] = int(kw[k])
+    return CameraCalibration(**kw)  # type: ignore[arg-type]

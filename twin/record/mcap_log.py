@@ -117,6 +117,34 @@ def _vec(v: Any) -> dict[str, float]:
     return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
 
 
+#: The metadata record a replay of this file reads (``twin.app.replay``): what the vehicle knew
+#: at launch, as JSON strings: the scenario, the filters' initial solution (the alignment's
+#: output), the camera's calibration and the depth gauge's firmware constants.
+REPLAY_METADATA = "auv_twin.replay"
+
+
+def _replay_block(sim: Simulation) -> dict[str, str]:
+    from twin.core.calibration import calibration_to_dict
+
+    block: dict[str, str] = {"scenario": json.dumps(sim.scenario.to_dict(), default=str)}
+    if sim.navigators:
+        st = next(iter(sim.navigators.values())).nav_state()
+        block["nav_init"] = json.dumps(
+            {
+                "t": st.t, "lat_rad": st.lat_rad, "lon_rad": st.lon_rad, "h_m": st.h_m,
+                "v_enu": np.asarray(st.v_enu).tolist(), "c_bn": np.asarray(st.c_bn).tolist(),
+            }
+        )  # fmt: skip
+    cam = next((x for x in sim.suite.sensors if x.kind == "polarimeter"), None)
+    if cam is not None:
+        block["calibration"] = json.dumps(calibration_to_dict(cam.calibration()))  # type: ignore[attr-defined]
+    depth = next((x for x in sim.suite.sensors if x.kind == "depth"), None)
+    if depth is not None:
+        p_atm, rho, g = depth.firmware_constants(sim.plant)  # type: ignore[attr-defined]
+        block["depth"] = json.dumps({"p_atm_pa": p_atm, "rho_kg_m3": rho, "g_mps2": g})
+    return block
+
+
 class McapLog:
     """An observer of the stepping core that writes the run's ROS 2 messages (module docstring).
 
@@ -151,12 +179,14 @@ class McapLog:
         self._w._writer.add_metadata(
             "auv_twin.provenance", {k: json.dumps(v) for k, v in provenance.items()}
         )
+        self._w._writer.add_metadata(REPLAY_METADATA, _replay_block(sim))
         self._every_truth = max(
             1, round(1.0 / (sim.scenario.recording.truth_rate_hz * sim.physics_dt))
         )
         self._k = 0
         self._last_truth_t = -math.inf
         self._counts: dict[str, int] = {}
+        self._seq = 0
         self._variants = tuple(sim.navigators)
         cam = next((s for s in sim.suite.sensors if s.kind == "polarimeter"), None)
         self._calibration = cam.calibration() if cam is not None else None  # type: ignore[attr-defined]
@@ -166,11 +196,13 @@ class McapLog:
     # ---- writing --------------------------------------------------------------------------------
     def _write(self, topic: str, schema: str, msg: dict[str, Any], t_log: float) -> None:
         ns = self._start_ns + round(t_log * 1e9)
-        seq = self._counts.get(topic, 0)
+        # One sequence over the file: the order messages of one log time were delivered in
+        # (a replay feeds them in that order).
         self._w.write_message(
-            topic, self._schemas[schema], msg, log_time=ns, publish_time=ns, sequence=seq
+            topic, self._schemas[schema], msg, log_time=ns, publish_time=ns, sequence=self._seq
         )
-        self._counts[topic] = seq + 1
+        self._seq += 1
+        self._counts[topic] = self._counts.get(topic, 0) + 1
 
     @property
     def counts(self) -> dict[str, int]:
@@ -415,4 +447,4 @@ class McapLog:
             self._file.close()
 
 
-__all__ = ["CUSTOM_MSGS", "FILE", "McapLog"]
+__all__ = ["CUSTOM_MSGS", "FILE", "REPLAY_METADATA", "McapLog"]
