@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer as RawWriter
+from rrd_helpers import entities
 
 import scenarios
 from twin.app.replay import LogError, read_log, replay
@@ -36,6 +37,10 @@ def run_dir(tmp_path_factory) -> Path:
     _cli("run", str(tmp / "short.toml"), "--out", str(out), "--quiet", "--no-camera", "--mcap",
          "--timeseries")  # fmt: skip
     return out
+
+
+def m_rep_variants(out: Path) -> list[str]:
+    return list(json.loads((out / "metrics.json").read_text())["navigation"]["variants"])
 
 
 def _cli(*args: str, ok: bool = True) -> subprocess.CompletedProcess:
@@ -75,6 +80,11 @@ def test_a_twin_run_replayed_gives_the_runs_estimates(run_dir: Path, tmp_path: P
     g = fp["heading_deg"].astype(float).to_numpy()
     assert np.array_equal(np.isnan(h), np.isnan(g))
     assert np.nanmax(np.abs(h - g)) < 1e-8
+    # The recording: the reference as the run's truth, each variant's samples and fixes.
+    ents = entities(out / "recording.rrd")
+    assert ents["/world/auv"] > 0
+    for v in m_rep_variants(out):
+        assert any(e.startswith(f"/nav/{v}/") for e in ents), v
     m_run = json.loads((run_dir / "metrics.json").read_text())
     m_rep = json.loads((out / "metrics.json").read_text())
     for v, nav in m_rep["navigation"]["variants"].items():

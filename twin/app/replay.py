@@ -4,8 +4,10 @@ The compass methods and filter variants of a scenario's ``[navigation]`` run on 
 camera messages of an MCAP file or a rosbag2 folder, exactly as they run on the twin's own
 readings (``twin.onboard.navigator.Navigator``), and the estimates are scored against the log's
 reference trajectory where it has one (``nav_msgs/msg/Odometry``: the twin's truth, or a
-GNSS/INS solution). Writes ``metrics.json`` and ``timeseries/filters.parquet`` and
-``timeseries/compass_fixes.parquet`` in the columns a run writes.
+GNSS/INS solution). Writes ``metrics.json``, ``recording.rrd`` (the readings, the reference,
+each filter's estimate and errors, the compass fixes: a run's entities) and
+``timeseries/filters.parquet`` and ``timeseries/compass_fixes.parquet`` in the columns a run
+writes.
 
 Inputs (a twin run's ``run.mcap`` carries all of them in its ``auv_twin.replay`` metadata, so
 ``auv-twin replay runs/x/run.mcap`` needs nothing else):
@@ -56,7 +58,9 @@ from twin.core.messages import Reading
 from twin.onboard.ins import NavState
 from twin.onboard.navigator import Navigator, VehicleKnowledge
 from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA
+from twin.record.observer import log_compass_event, log_nav_sample
 from twin.record.provenance import fingerprint, parquet_metadata, provenance
+from twin.record.recorder import Recorder, compact, default_blueprint
 from twin.scoring.navigation import VariantScore
 from twin.world.assembly import make_sensor, optics_config
 from twin.world.truth import Truth
@@ -267,7 +271,7 @@ def replay(
         raise LogError(
             f"replay --topic: unknown role(s) {unknown}; allowed: {sorted(DEFAULT_TOPICS)}"
         )
-    available, metadata, messages = read_log(path)
+    available, metadata, _ = read_log(path)
     meta = metadata.get(REPLAY_METADATA, {})
     if scenario is None:
         if "scenario" not in meta:
@@ -293,7 +297,6 @@ def replay(
         )
     depth_k = _depth_constants(meta, scenario)
     start_ns = round(scenario.start_utc.timestamp() * 1e9)
-    has_ref = top["reference"] in types
     cfg = navigator_config(
         scenario, make_sensor("imu", scenario.sensors.imu, scenario.sensors.imu_overrides).spec
     )
@@ -304,6 +307,54 @@ def replay(
         water_index=optics_config(scenario).water_index,
         calibration=calibration,
     )
+    out.mkdir(parents=True, exist_ok=True)
+    rec = Recorder(
+        out / "recording.rrd",
+        recording_id=f"replay-{path.stem}",
+        start_utc=scenario.start_utc,
+        compact=False,
+        blueprint=default_blueprint(variants),
+    )
+    setup = _Setup(
+        path, out, scenario, variants, top, types, meta, compass, needed, calibration,
+        depth_k, start_ns, cfg, knowledge,
+    )  # fmt: skip
+    try:
+        metrics = _replay_into(rec, setup)
+    finally:
+        rec.close()
+    compact(out / "recording.rrd")
+    return metrics
+
+
+@dataclasses.dataclass(frozen=True)
+class _Setup:
+    """What :func:`replay` resolved before reading the messages."""
+
+    path: Path
+    out: Path
+    scenario: Scenario
+    variants: tuple[str, ...]
+    top: dict[str, str]
+    types: dict[str, str]
+    meta: dict[str, str]
+    compass: bool
+    needed: list[str]
+    calibration: CameraCalibration | None
+    depth_k: tuple[float, float, float]
+    start_ns: int
+    cfg: Any
+    knowledge: VehicleKnowledge
+
+
+def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
+    """:func:`replay`'s loop over the log, logging into ``rec``; returns the metrics."""
+    path, out, scenario, variants = setup.path, setup.out, setup.scenario, setup.variants
+    top, types, meta, compass = setup.top, setup.types, setup.meta, setup.compass
+    calibration, depth_k, start_ns = setup.calibration, setup.depth_k, setup.start_ns
+    cfg, knowledge, needed = setup.cfg, setup.knowledge, setup.needed
+    _, _, messages = read_log(path)
+    has_ref = top["reference"] in types
     navs: dict[str, Navigator] | None = None
     scores = {v: VariantScore(v) for v in variants}
     filter_rows: list[dict[str, Any]] = []
@@ -335,8 +386,18 @@ def replay(
             truth = _truth_from_odom(m.msg, t, scenario)
             if navs is None:
                 navs = {v: Navigator(v, knowledge, _init_from(meta, truth), cfg) for v in variants}
+            rec.log_truth(
+                t,
+                position_n=truth.position_n,
+                quat_wxyz=truth.quat_wxyz,
+                velocity_n=truth.velocity_n,
+                rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
+                heading_deg=truth.heading_deg,
+                depth_m=truth.depth_m,
+            )
             for v, nav in navs.items():
                 sample = scores[v].add(nav, truth)
+                log_nav_sample(rec, v, t, sample)
                 filter_rows.append(
                     {"t": t, "variant": v, **{k: float(x) for k, x in sample.items()}}
                 )
@@ -356,14 +417,15 @@ def replay(
                     f"({max_gap:g} s, InsConfig.max_dt_s)"
                 )
             imu_t.append(t)
+        rec.log_reading(reading)
         for v, nav in navs.items():
             event = nav.on_reading(reading)
             if event is not None:
                 fix_rows.append(_fix_row(v, event))
+                log_compass_event(rec, v, event)
     if navs is None:
         raise LogError(f"log {path}: no messages on the mapped topics")
     gaps = _gaps(imu_t)
-    out.mkdir(parents=True, exist_ok=True)
     block = provenance(fingerprint=fingerprint(scenario.to_dict()), seed=None)
     metrics: dict[str, Any] = {
         "log": str(path),

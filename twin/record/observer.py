@@ -130,7 +130,7 @@ class RunRecorder:
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         rec = self.rec
         for name, event in result.events:
-            _log_compass_event(rec, name, event)
+            log_compass_event(rec, name, event)
             fs = self.scorer.fixes.get(name)
             if fs is not None and fs.t and fs.t[-1] == event.t:
                 rec.log_scalars(
@@ -162,7 +162,7 @@ class RunRecorder:
                     depth_m=truth.depth_m,
                 )
                 for name, sample in self.scorer.last_samples.items():
-                    _log_nav_sample(rec, name, truth.t, sample)
+                    log_nav_sample(rec, name, truth.t, sample)
                 if sim.stored_map is not None and truth.t >= self._next_gravity_t - 1e-9:
                     log_gravity_sample(rec, sim, truth)
                     self._next_gravity_t = truth.t + GRAVITY_LOG_PERIOD_S
@@ -214,7 +214,7 @@ def _log_polarimeter(rec: Recorder, reading: Reading, cal: CameraCalibration, tr
         rec.log_points2d("/polarimeter/intensity/true_sun", reading.t, sun, label="true sun")
 
 
-def _log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
+def log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
     """Estimated heading, its error against truth with ±3σ bounds, NEES: time series."""
     rec.log_scalars(f"/nav/heading_deg/{name}", t, np.array([s["heading_deg"]]), names=[name])
     sig3 = 3.0 * s["heading_sigma_deg"]
@@ -234,7 +234,7 @@ def _log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> 
     rec.log_scalars(f"/nav/{name}/nees_attitude", t, np.array([s["nees"]]))
 
 
-def _log_compass_event(rec: Recorder, name: str, event: CompassEvent) -> None:
+def log_compass_event(rec: Recorder, name: str, event: CompassEvent) -> None:
     """A processed frame: the fix's heading, or a marked rejection / no-fix."""
     fix, up = event.fix, event.update
     if fix.ok and fix.heading_deg is not None:
