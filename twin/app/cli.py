@@ -73,6 +73,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / sc.name
     if writable_out(out) is None:  # before anything is flown
         return 2
+    live = args.connect
+    if args.connect is not None:
+        from twin.record.recorder import check_live
+
+        try:
+            check_live(args.connect)
+        except OSError as exc:
+            print(f"error: --connect: {exc}", file=sys.stderr)
+            return 2
+    if args.viewer:
+        from twin.record.recorder import spawn_viewer
+
+        try:
+            live = spawn_viewer()
+        except OSError as exc:
+            print(f"note: {exc}; the run goes on, recording to the file only", file=sys.stderr)
     try:
         metrics = run_scenario(
             sc,
@@ -82,6 +98,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             camera=False if args.no_camera else None,
             timeseries=args.timeseries,
             mcap=args.mcap,
+            live=live,
         )
     except KeyboardInterrupt:
         print(f"\ninterrupted: partial recording and metrics in {out}", file=sys.stderr)
@@ -262,6 +279,18 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also write the time series (truth, readings, filters, compass fixes) as Parquet "
         "in OUT/timeseries/",
+    )
+    live = r.add_mutually_exclusive_group()
+    live.add_argument(
+        "--viewer",
+        action="store_true",
+        help="also stream the recording to a Rerun viewer (spawned) while the run goes on",
+    )
+    live.add_argument(
+        "--connect",
+        metavar="URL",
+        help="also stream the recording to the Rerun viewer or server at this gRPC URL "
+        "(e.g. rerun+http://127.0.0.1:9876/proxy) while the run goes on",
     )
     r.add_argument(
         "--mcap",

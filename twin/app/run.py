@@ -119,6 +119,7 @@ def run_scenario(
     on_scored: Callable[[RunScorer], None] | None = None,
     timeseries: bool = False,
     mcap: bool = False,
+    live: str | None = None,
 ) -> dict[str, Any]:
     """Run one sea trial and write its recording and metrics.
 
@@ -135,6 +136,8 @@ def run_scenario(
             (:mod:`twin.record.timeseries`), also when the run stops early.
         mcap: Also write the run as ROS 2 messages in ``out_dir/run.mcap``
             (:mod:`twin.record.mcap_log`), finished also when the run stops early.
+        live: Also stream the recording to a Rerun viewer at this gRPC URL while the run goes
+            on (the file is unchanged); needs ``record``.
 
     Returns:
         The metrics dict (also written to ``out_dir/metrics.json``).
@@ -181,6 +184,7 @@ def run_scenario(
                 blueprint=default_blueprint(
                     tuple(world.navigators), gravity=world.stored_map is not None
                 ),
+                live=live,
             )
             rec.log_properties("provenance", base["provenance"])
         notes = _notes(scenario)

@@ -48,8 +48,11 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import socket
 import subprocess
 import sys
+import time
+import urllib.parse
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -205,6 +208,51 @@ def default_blueprint(variants: Sequence[str] = (), *, gravity: bool = False) ->
     )
 
 
+#: Where a spawned viewer listens (Rerun's default port).
+VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
+
+
+def spawn_viewer(wait_s: float = 10.0) -> str:
+    """Start a Rerun viewer (or reuse the one on the default port); its gRPC URL.
+
+    Raises:
+        OSError: No viewer listens after ``wait_s`` (no ``rerun`` executable, no display).
+    """
+    try:
+        # spawn() acts only for an enabled recording: a throwaway one (nothing is sent on it).
+        rr.spawn(
+            connect=False,
+            hide_welcome_screen=True,
+            recording=rr.RecordingStream("auv_twin", recording_id="spawn"),
+        )
+    except Exception as exc:  # rerun raises plain RuntimeErrors and FileNotFoundErrors here
+        raise OSError(f"could not spawn a Rerun viewer ({type(exc).__name__}: {exc})") from exc
+    check_live(VIEWER_URL, wait_s)
+    return VIEWER_URL
+
+
+def check_live(url: str, wait_s: float = 2.0) -> None:
+    """Raise OSError unless something accepts connections at the gRPC URL's host and port.
+
+    A gRPC sink with nobody listening would hold the run at its first flush.
+    """
+    parsed = urllib.parse.urlsplit(url.replace("rerun+", "", 1))
+    if parsed.scheme not in ("http", "https") or not parsed.hostname:
+        raise OSError(f"{url!r} is not a Rerun gRPC URL (e.g. {VIEWER_URL})")
+    port = parsed.port or (443 if parsed.scheme == "https" else 80)
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            with socket.create_connection((parsed.hostname, port), timeout=0.5):
+                return
+        except OSError as exc:
+            if time.monotonic() >= deadline:
+                raise OSError(
+                    f"no Rerun viewer or server answers at {url} ({exc.strerror or exc})"
+                ) from exc
+            time.sleep(0.2)
+
+
 def salvage(src: Path | str, dst: Path | str) -> Path:
     """Rewrite a recording cut short by a killed process into a complete, footered file.
 
@@ -301,6 +349,8 @@ class Recorder:
         blueprint: The layout to store with the file; ``None`` stores :func:`default_blueprint`.
         path_period_s: Sim-time spacing of the path-travelled segments in ``/world/path``.
         jpeg_quality: JPEG quality for :meth:`log_image`; ``None`` stores raw pixels.
+        live: Also stream to a Rerun viewer or server at this gRPC URL (e.g.
+            ``rerun+http://127.0.0.1:9876/proxy``, :func:`spawn_viewer`'s), as the run goes on.
 
     Raises:
         ValueError: If ``start_utc`` is naive or a period is not positive.
@@ -319,6 +369,7 @@ class Recorder:
         path_period_s: float = 0.5,
         jpeg_quality: int | None = 80,
         compact: bool = True,
+        live: str | None = None,
     ) -> None:
         if start_utc.tzinfo is None or start_utc.utcoffset() is None:
             raise ValueError(f"start_utc = {start_utc!r}: must be timezone-aware (UTC)")
@@ -345,10 +396,13 @@ class Recorder:
             batcher_config=rr.ChunkBatcherConfig(flush_tick=dt.timedelta(days=365)),
         )
         self._rec.set_log_time_enabled(False)
-        self._rec.save(
-            self.path,
-            default_blueprint=blueprint if blueprint is not None else default_blueprint(variants),
-        )
+        bp = blueprint if blueprint is not None else default_blueprint(variants)
+        if live is None:
+            self._rec.save(self.path, default_blueprint=bp)
+        else:
+            # The file and a live viewer get the same stream (the file is what it would be
+            # alone: tests/test_live_view.py).
+            self._rec.set_sinks(rr.FileSink(self.path), rr.GrpcSink(live), default_blueprint=bp)
 
         self._truth: list[tuple[float, ...]] = []
         self._series: dict[str, _Series] = {}
