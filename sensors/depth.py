@@ -179,7 +179,10 @@ class DepthGauge(Sensor):
     def channel_specs(self) -> dict[str, dm_env.specs.Array]:
         """``pressure_pa`` (1,) Pa and ``depth_m`` (1,) m, float64."""
         return {
-            "pressure_pa": dm_env.specs.Array((1,), np.float64, "pressure_pa"),
+            # The sensor saturates at 0 and its full scale.
+            "pressure_pa": dm_env.specs.BoundedArray(
+                (1,), np.float64, 0.0, self._full_scale_pa, "pressure_pa"
+            ),
             "depth_m": dm_env.specs.Array((1,), np.float64, "depth_m"),
         }
 

@@ -440,9 +440,20 @@ class Polarimeter(Sensor):
     # ---- Sensor API ----------------------------------------------------------------------------
     def channel_specs(self) -> dict[str, dm_env.specs.Array]:
         h, w = self.camera.shape
+        s = self.pspec.sensor_spec()
+        # Bounded where the sensor bounds them: the ADC clips at saturation, the exposure is
+        # clamped to the camera's range.
         return {
-            "raw": dm_env.specs.Array((h, w), np.uint16, name=f"{self.name}/raw"),
-            "exposure_us": dm_env.specs.Array((), np.float64, name=f"{self.name}/exposure_us"),
+            "raw": dm_env.specs.BoundedArray(
+                (h, w), np.uint16, 0, s.saturation_dn, name=f"{self.name}/raw"
+            ),
+            "exposure_us": dm_env.specs.BoundedArray(
+                (),
+                np.float64,
+                s.min_exposure_us,
+                s.max_exposure_us,
+                name=f"{self.name}/exposure_us",
+            ),
         }
 
     def reset(self, world: WorldView, rng: np.random.Generator) -> None:

@@ -95,14 +95,30 @@ class AuvEnv(dm_env.Environment):
 
     # ---- specs ---------------------------------------------------------------------------
     def _make_observation_spec(self) -> dict[str, specs.Array]:
-        out: dict[str, specs.Array] = {"time_s": specs.Array((), np.float64, name="time_s")}
+        end = float(self._scenario.duration_s)
+        out: dict[str, specs.Array] = {
+            "time_s": specs.BoundedArray((), np.float64, 0.0, end, name="time_s")
+        }
         for sensor in self._world.suite.sensors:
             k = self._k[sensor.name]
             lead = (k,) if k > 1 else ()
-            out[f"{sensor.name}/t"] = specs.Array(lead, np.float64, name=f"{sensor.name}/t")
+            # −1: a slot not filled yet; no upper bound (a sensor's own clock may run ahead).
+            out[f"{sensor.name}/t"] = specs.BoundedArray(
+                lead, np.float64, -1.0, np.inf, name=f"{sensor.name}/t"
+            )
             for channel, spec in sensor.channel_specs().items():
                 key = f"{sensor.name}/{channel}"
-                out[key] = specs.Array(lead + tuple(spec.shape), spec.dtype, name=key)
+                shape = lead + tuple(spec.shape)
+                if isinstance(spec, specs.BoundedArray):  # the sensor's own bounds, per element
+                    out[key] = specs.BoundedArray(
+                        shape,
+                        spec.dtype,
+                        np.broadcast_to(spec.minimum, shape),
+                        np.broadcast_to(spec.maximum, shape),
+                        name=key,
+                    )
+                else:
+                    out[key] = specs.Array(shape, spec.dtype, name=key)
         if self._task is not None:
             for key, value in self._task.get_observation(self._world).items():
                 v = np.asarray(value)
