@@ -118,6 +118,7 @@ class AuvGymEnv(gym.Env):
         self._render_size = (int(render_width), int(render_height))
         self._chase: Any = None
         self._observation, self._image_h = observation, image_height
+        self._last_image: tuple[float, np.ndarray] | None = None
         sc = scenarios.load(scenario) if isinstance(scenario, str) else scenario
         if duration_s is not None:
             sc = scenarios.parse_scenario({**sc.to_dict(), "duration_s": duration_s}, sc.name)
@@ -168,6 +169,11 @@ class AuvGymEnv(gym.Env):
         if self._observation == "no_frame":
             return obs
         assert self._cal is not None
+        key = f"{self._camera}/{self._observation}"
+        stamp = float(np.asarray(obs[f"{self._camera}/t"]).reshape(-1)[-1])
+        if self._last_image is not None and self._last_image[0] == stamp:
+            obs[key] = self._last_image[1].copy()  # the same frame as the last step's
+            return obs
         frame = raw[-1] if raw.ndim == 3 else raw  # the period's last frame
         pol = stokes_from_mosaic(
             frame,
@@ -188,6 +194,7 @@ class AuvGymEnv(gym.Env):
             img[..., 1] = np.clip(img[..., 1], 0.0, 1.0)
             img[..., 2] = np.clip(img[..., 2], -np.pi / 2, np.pi / 2)
             obs[f"{self._camera}/stokes"] = img.astype(np.float32)
+        self._last_image = (stamp, obs[key].copy())
         return obs
 
     def _make(self, seed: int) -> AuvEnv:
@@ -217,6 +224,7 @@ class AuvGymEnv(gym.Env):
             self._next_seed = seed
         self._env = self._make(self._next_seed)
         self._next_seed += 1
+        self._last_image = None
         ts = self._env.reset()
         if self.render_mode == "rgb_array":
             self._open_chase()
