@@ -46,6 +46,34 @@ def steps_per_s(observation: str) -> tuple[float, int]:
     return best, size
 
 
+def spaces_table() -> list[str]:
+    """Every observation key of the default scenario (``observation="image"`` and ``"stokes"``
+    add their image keys; ``"full"`` the raw frame), and the action spaces."""
+    sc = dataclasses.replace(scenarios.load("default"), duration_s=10.0)
+    keys: dict[str, gym.spaces.Box] = {}
+    for o in OBSERVATIONS:
+        env = gym.make("twin.app.gym_env:AuvTwin-v0", scenario=sc, observation=o)
+        keys.update(env.observation_space.spaces)
+        env.close()
+    lines = [
+        "## Spaces (default scenario, generated)",
+        "",
+        "| key | shape | dtype | low | high |",
+        "|---|---|---|---|---|",
+    ]
+    for k, b in sorted(keys.items()):
+        lo, hi = np.min(b.low), np.max(b.high)
+        lines.append(f"| `{k}` | {b.shape} | {b.dtype} | {lo:g} | {hi:g} |")
+    for control in ("actuator", "setpoint"):
+        env = gym.make("twin.app.gym_env:AuvTwin-v0", scenario=sc, control=control)
+        a = env.action_space
+        name = env.unwrapped.dm_env.action_spec().name
+        lo, hi = a.low.tolist(), a.high.tolist()
+        lines.append(f"\nAction, `control={control!r}`: `{name}`, low {lo}, high {hi}")
+        env.close()
+    return lines
+
+
 def main() -> None:
     rows = {o: steps_per_s(o) for o in OBSERVATIONS}
     meta = {
@@ -73,6 +101,7 @@ def main() -> None:
     ]
     for o, (rate, size) in rows.items():
         lines.append(f"| {o} | {rate:.0f} | {rate * 0.1:.1f} | {size} |")
+    lines += ["", *spaces_table()]
     (RESULTS / "gym_steps.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

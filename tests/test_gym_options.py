@@ -67,6 +67,7 @@ def test_spaces_are_bounded_where_the_physics_bounds_them() -> None:
     assert np.all(np.isinf(sp["imu/angular_rate"].high))  # no modelled range: unbounded
 
 
+@pytest.mark.render
 def test_rgb_array_renders_the_chase_camera() -> None:
     env = gym.make(
         "twin.app.gym_env:AuvTwin-v0",

@@ -75,6 +75,7 @@ def test_recording_holds_truth_readings_commands_and_scene(tank_run) -> None:
     assert abs(np.median(gauge) - np.median(truth)) < 0.1
 
 
+@pytest.mark.render
 def test_chase_camera_is_logged_when_gl_is_available(tank_run) -> None:
     import mujoco
 

@@ -120,9 +120,14 @@ class AuvEnv(dm_env.Environment):
                 else:
                     out[key] = specs.Array(shape, spec.dtype, name=key)
         if self._task is not None:
+            bounds = type(self._task).OBSERVATION_BOUNDS
             for key, value in self._task.get_observation(self._world).items():
                 v = np.asarray(value)
-                out[key] = specs.Array(v.shape, v.dtype, name=key)
+                if key in bounds:
+                    lo, hi = bounds[key]
+                    out[key] = specs.BoundedArray(v.shape, v.dtype, lo, hi, name=key)
+                else:
+                    out[key] = specs.Array(v.shape, v.dtype, name=key)
         return out
 
     def observation_spec(self) -> dict[str, specs.Array]:

@@ -16,7 +16,7 @@ stay sensor readings (:class:`twin.app.env.AuvEnv`). Actions are the environment
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from dm_control.rl import control
@@ -51,6 +51,9 @@ class AuvTask(control.Task):
     def get_observation(self, physics: Simulation) -> dict[str, np.ndarray]:
         return {}
 
+    #: (low, high) of the goal observations the task bounds (the observation spaces use them).
+    OBSERVATION_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {}
+
     def get_reward(self, physics: Simulation) -> float:
         raise NotImplementedError
 
@@ -73,6 +76,10 @@ class HeadingHold(AuvTask):
         bounds_deg: Full reward within this error.
         margin_deg: The reward falls to 0.1 (gaussian) at bounds + margin.
     """
+
+    OBSERVATION_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {
+        "task/target_heading_deg": (0.0, 360.0)
+    }
 
     def __init__(
         self, target_deg: float | None = None, bounds_deg: float = 2.0, margin_deg: float = 30.0
@@ -111,6 +118,11 @@ class DepthHold(AuvTask):
         margin_m: The least margin (m).
         draw_range_m: Where random targets are drawn.
     """
+
+    #: Below the surface, at most the deepest ocean.
+    OBSERVATION_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {
+        "task/target_depth_m": (_SURFACE_DEPTH_M, 11_000.0)
+    }
 
     def __init__(
         self,
