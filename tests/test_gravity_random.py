@@ -6,8 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from scenario_helpers import minimal_scenario
 
-from scenarios.loader import ScenarioError, parse_scenario
+from scenarios.loader import ScenarioError
 from twin.world.gravity_area import check_gravity, gravity_field
 from twin.world.gravity_random import (
     RandomFieldSpec,
@@ -77,24 +78,12 @@ def test_impossible_specs_are_clear_errors(kw, needle):
         RandomFieldSpec(**kw)
 
 
-BASE: dict = {
-    "name": "g",
-    "duration_s": 60.0,
-    "start_utc": "2021-09-03T02:00:00Z",
-    "place": {"latitude_deg": 37.54, "longitude_deg": 122.06},
-    "initial": {"depth_m": 50.0, "heading_deg": 45.0, "speed_mps": 1.5},
-    "mission": {
-        "kind": "legs",
-        "acceptance_radius_m": 20.0,
-        "legs": [{"to_m": [500.0, 500.0], "depth_m": 50.0, "speed_mps": 1.5}],
-    },
-    "sensors": {"gravimeter": "ideal"},
-    "navigation": {"variants": ["ins"]},
-}
-
-
 def _scenario(**gravity) -> object:
-    return parse_scenario({**BASE, "gravity": {"map": "random", **gravity}})
+    return minimal_scenario(
+        sensors={"gravimeter": "ideal"},
+        navigation={"variants": ["ins"]},
+        gravity={"map": "random", **gravity},
+    )
 
 
 def test_a_scenario_draws_its_random_map_from_its_map_seed():

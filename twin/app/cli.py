@@ -13,7 +13,7 @@ from twin.app.interrupts import held
 # A Ctrl-C while these load is held, and answered by main() (twin.app.interrupts says why).
 with held(raise_after=False) as _startup:
     import scenarios
-    from scenarios import ScenarioError
+    from scenarios import Scenario, ScenarioError
     from twin.app import render
 
 
@@ -55,17 +55,23 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return status
 
 
+def _load(name: str) -> Scenario | None:
+    """The scenario, or None after printing why it cannot be loaded (the caller exits 2)."""
+    try:
+        return scenarios.load(name)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+    except ScenarioError as exc:
+        print(f"error: scenario {name} is invalid\n{exc}", file=sys.stderr)
+    return None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     with held():  # heavy: when running
         from twin.app.run import format_summary, run_scenario
 
-    try:
-        sc = scenarios.load(args.scenario)
-    except FileNotFoundError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except ScenarioError as exc:
-        print(f"error: scenario {args.scenario} is invalid\n{exc}", file=sys.stderr)
+    sc = _load(args.scenario)
+    if sc is None:
         return 2
     if args.seed is not None and args.seed < 0:
         print(f"error: --seed {args.seed}: must be an integer >= 0", file=sys.stderr)
@@ -123,13 +129,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     sc = None
     if args.scenario:
-        try:
-            sc = scenarios.load(args.scenario)
-        except FileNotFoundError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        except ScenarioError as exc:
-            print(f"error: scenario {args.scenario} is invalid\n{exc}", file=sys.stderr)
+        sc = _load(args.scenario)
+        if sc is None:
             return 2
     topics: dict[str, str] = {}
     for item in args.topic or []:

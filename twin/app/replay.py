@@ -58,9 +58,10 @@ from twin.core.messages import Reading
 from twin.onboard.ins import NavState
 from twin.onboard.navigator import Navigator, VehicleKnowledge
 from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA
-from twin.record.observer import log_compass_event, log_nav_sample
+from twin.record.observer import log_compass_event, log_nav_sample, log_truth
 from twin.record.provenance import fingerprint, parquet_metadata, provenance
 from twin.record.recorder import Recorder, compact, default_blueprint
+from twin.record.timeseries import fix_row
 from twin.scoring.navigation import VariantScore
 from twin.world.assembly import make_sensor, optics_config
 from twin.world.truth import Truth
@@ -386,15 +387,7 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
             truth = _truth_from_odom(m.msg, t, scenario)
             if navs is None:
                 navs = {v: Navigator(v, knowledge, _init_from(meta, truth), cfg) for v in variants}
-            rec.log_truth(
-                t,
-                position_n=truth.position_n,
-                quat_wxyz=truth.quat_wxyz,
-                velocity_n=truth.velocity_n,
-                rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
-                heading_deg=truth.heading_deg,
-                depth_m=truth.depth_m,
-            )
+            log_truth(rec, truth)
             for v, nav in navs.items():
                 sample = scores[v].add(nav, truth)
                 log_nav_sample(rec, v, t, sample)
@@ -421,7 +414,7 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
         for v, nav in navs.items():
             event = nav.on_reading(reading)
             if event is not None:
-                fix_rows.append(_fix_row(v, event))
+                fix_rows.append(fix_row(v, event))
                 log_compass_event(rec, v, event)
     if navs is None:
         raise LogError(f"log {path}: no messages on the mapped topics")
@@ -497,16 +490,6 @@ def _reading(
     dtype = ">u2" if msg.is_bigendian else "<u2"
     raw = np.frombuffer(bytes(msg.data), dtype=dtype).reshape(msg.height, msg.width)
     return Reading("polarimeter", t, t_log, {"raw": raw.astype(np.uint16)})
-
-
-def _fix_row(variant: str, event: Any) -> dict[str, Any]:
-    fix = event.fix
-    row: dict[str, Any] = {"t": event.t, "variant": variant, "ok": bool(fix.ok)}
-    row["heading_deg"] = float(fix.heading_deg) if fix.heading_deg is not None else None
-    sun = fix.sun_body if fix.sun_body is not None else (None, None, None)
-    for i, axis in enumerate("xyz"):
-        row[f"sun_body_{axis}"] = None if sun[i] is None else float(sun[i])
-    return row
 
 
 def _gaps(t: list[float]) -> list[dict[str, float]]:

@@ -28,6 +28,7 @@ from twin.record.recorder import Recorder
 if TYPE_CHECKING:
     from twin.app.simulation import Simulation, StepResult
     from twin.scoring.observer import RunScorer
+    from twin.world.truth import Truth
 
 
 class ChaseCamera:
@@ -152,15 +153,7 @@ class RunRecorder:
         if self._k % self._every_truth == 0:
             truth = self.scorer.last_truth
             if truth is not None and truth.t == result.t:
-                rec.log_truth(
-                    truth.t,
-                    position_n=truth.position_n,
-                    quat_wxyz=truth.quat_wxyz,
-                    velocity_n=truth.velocity_n,
-                    rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
-                    heading_deg=truth.heading_deg,
-                    depth_m=truth.depth_m,
-                )
+                log_truth(rec, truth)
                 for name, sample in self.scorer.last_samples.items():
                     log_nav_sample(rec, name, truth.t, sample)
                 if sim.stored_map is not None and truth.t >= self._next_gravity_t - 1e-9:
@@ -168,6 +161,19 @@ class RunRecorder:
                     self._next_gravity_t = truth.t + GRAVITY_LOG_PERIOD_S
         if self.chase is not None and self._k % self._every_cam == 0:
             rec.log_image("/camera/chase", sim.plant.t, self.chase.render(sim.plant.data))
+
+
+def log_truth(rec: Recorder, truth: Truth) -> None:
+    """One truth sample (the run's, or a replayed log's reference) into the recording."""
+    rec.log_truth(
+        truth.t,
+        position_n=truth.position_n,
+        quat_wxyz=truth.quat_wxyz,
+        velocity_n=truth.velocity_n,
+        rpy_deg=np.degrees([truth.roll_rad, truth.pitch_rad, truth.yaw_rad]),
+        heading_deg=truth.heading_deg,
+        depth_m=truth.depth_m,
+    )
 
 
 def log_scene(rec: Recorder, world: Simulation) -> None:

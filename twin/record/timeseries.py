@@ -43,6 +43,17 @@ MAX_CHANNEL_WIDTH = 16
 FOLDER = "timeseries"
 
 
+def fix_row(variant: str, event: Any) -> dict[str, Any]:
+    """A compass fix as a ``compass_fixes.parquet`` row (without its errors against truth)."""
+    fix = event.fix
+    row: dict[str, Any] = {"t": event.t, "variant": variant, "ok": bool(fix.ok)}
+    row["heading_deg"] = float(fix.heading_deg) if fix.heading_deg is not None else None
+    sun = fix.sun_body if fix.sun_body is not None else (None, None, None)
+    for i, axis in enumerate("xyz"):
+        row[f"sun_body_{axis}"] = None if sun[i] is None else float(sun[i])
+    return row
+
+
 class TimeSeriesWriter:
     """An observer of the stepping core that keeps the run's series and writes them at the end.
 
@@ -64,11 +75,7 @@ class TimeSeriesWriter:
             self._reading(reading)
         for name, event in result.events:
             fix = event.fix
-            row: dict[str, Any] = {"t": event.t, "variant": name, "ok": bool(fix.ok)}
-            row["heading_deg"] = float(fix.heading_deg) if fix.heading_deg is not None else None
-            sun = fix.sun_body if fix.sun_body is not None else (None, None, None)
-            for i, axis in enumerate("xyz"):
-                row[f"sun_body_{axis}"] = None if sun[i] is None else float(sun[i])
+            row = fix_row(name, event)
             fs = self.scorer.fixes.get(name)
             scored = fs is not None and fs.t and fs.t[-1] == event.t and fix.ok
             row["heading_error_deg"] = fs.heading_err[-1] if scored else None

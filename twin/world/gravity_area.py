@@ -161,14 +161,23 @@ def route_points_m(scenario: Scenario) -> list[tuple[str, tuple[float, float]]]:
 MAX_PRISM_EVALUATIONS = 1.2e9
 
 
-def _seafloor_size_problem(g: Gravity) -> str | None:
-    """A seafloor too coarse for two nodes a side, or too fine to build in about a minute."""
+def _spacing_problem(g: Gravity) -> str | None:
+    """A synthetic map's spacing that leaves fewer than 3 nodes a side."""
     sx, sy = (1000.0 * v for v in g.size_km)
     if g.spacing_m > min(sx, sy) / 2:
         return (
             f"gravity.spacing_m: {g.spacing_m:g} leaves fewer than 3 nodes a side of the "
             f"{sx / 1e3:g} × {sy / 1e3:g} km map; allowed: at most {min(sx, sy) / 2:g} m"
         )
+    return None
+
+
+def _seafloor_size_problem(g: Gravity) -> str | None:
+    """A seafloor too coarse for two nodes a side, or too fine to build in about a minute."""
+    sx, sy = (1000.0 * v for v in g.size_km)
+    too_coarse = _spacing_problem(g)
+    if too_coarse:
+        return too_coarse
     pad = _spec(g).pad_m
     nodes = (sx / g.spacing_m + 1) * (sy / g.spacing_m + 1)
     prisms = ((sx + 2 * pad) / g.spacing_m + 1) * ((sy + 2 * pad) / g.spacing_m + 1)
@@ -191,11 +200,9 @@ MAX_RANDOM_NODES = 1.6e7
 def _random_size_problem(g: Gravity) -> str | None:
     """A random map too coarse for its correlation length or its size, or too big to draw."""
     sx, sy = (1000.0 * v for v in g.size_km)
-    if g.spacing_m > min(sx, sy) / 2:
-        return (
-            f"gravity.spacing_m: {g.spacing_m:g} leaves fewer than 3 nodes a side of the "
-            f"{sx / 1e3:g} × {sy / 1e3:g} km map; allowed: at most {min(sx, sy) / 2:g} m"
-        )
+    too_coarse = _spacing_problem(g)
+    if too_coarse:
+        return too_coarse
     if g.correlation_km * 1000.0 < g.spacing_m:
         return (
             f"gravity.correlation_km: {g.correlation_km:g} is shorter than the map's node "
