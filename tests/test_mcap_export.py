@@ -50,7 +50,8 @@ def _read(path: Path) -> dict[str, list[tuple[int, object]]]:
 
 
 def _ns(start: dt.datetime, t: float) -> int:
-    return round(start.timestamp() * 1e9) + round(t * 1e9)
+    epoch = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+    return (start - epoch) // dt.timedelta(microseconds=1) * 1000 + round(t * 1e9)
 
 
 def _stamp_ns(msg: object) -> int:

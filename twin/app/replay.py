@@ -57,7 +57,7 @@ from twin.core.frames import dcm_to_euler, dcm_to_quat, quat_to_dcm, yaw_to_head
 from twin.core.messages import Reading
 from twin.onboard.ins import NavState
 from twin.onboard.navigator import Navigator, VehicleKnowledge
-from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA
+from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA, utc_ns
 from twin.record.observer import log_compass_event, log_nav_sample, log_truth
 from twin.record.provenance import fingerprint, parquet_metadata, provenance
 from twin.record.recorder import Recorder, compact, default_blueprint
@@ -297,7 +297,7 @@ def replay(
             f"log {path}: the compass variants need the camera's calibration: give --calibration"
         )
     depth_k = _depth_constants(meta, scenario)
-    start_ns = round(scenario.start_utc.timestamp() * 1e9)
+    start_ns = utc_ns(scenario.start_utc)
     cfg = navigator_config(
         scenario, make_sensor("imu", scenario.sensors.imu, scenario.sensors.imu_overrides).spec
     )

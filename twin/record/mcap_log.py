@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     from twin.scoring.observer import RunScorer
 
 FILE = "run.mcap"
+_EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 
 #: The twin's body axes (x right, y forward, z up) → ROS's base_link (x forward, y left, z up):
 #: a vector given in base_link axes, expressed in body axes.
@@ -97,6 +98,11 @@ def _definitions() -> dict[str, str]:
         *CUSTOM_MSGS,
     )  # fmt: skip
     return {n: store.generate_msgdef(n, ros_version=2)[0] for n in names}
+
+
+def utc_ns(t: dt.datetime) -> int:
+    """Nanoseconds since 1970 of an aware datetime, exactly (float seconds resolve ~0.2 µs)."""
+    return (t - _EPOCH) // dt.timedelta(microseconds=1) * 1000
 
 
 def _stamp(start_ns: int, t: float) -> dict[str, int]:
@@ -171,15 +177,20 @@ class McapLog:
 
         self.path = Path(path)
         self.scorer = scorer
-        self._start_ns = round(start_utc.timestamp() * 1e9)
+        self._start_ns = utc_ns(start_utc)
         self._file = open(self.path, "wb")  # closed in close()
-        self._w = Writer(self._file)
-        self._schemas = {n: self._w.register_msgdef(n, d) for n, d in _definitions().items()}
-        # MCAP metadata through the underlying mcap writer (mcap-ros2-support exposes none).
-        self._w._writer.add_metadata(
-            "auv_twin.provenance", {k: json.dumps(v) for k, v in provenance.items()}
-        )
-        self._w._writer.add_metadata(REPLAY_METADATA, _replay_block(sim))
+        try:
+            self._w = Writer(self._file)
+            defs = _definitions()
+            self._schemas = {n: self._w.register_msgdef(n, d) for n, d in defs.items()}
+            # MCAP metadata through the underlying mcap writer (mcap-ros2-support exposes none).
+            self._w._writer.add_metadata(
+                "auv_twin.provenance", {k: json.dumps(v) for k, v in provenance.items()}
+            )
+            self._w._writer.add_metadata(REPLAY_METADATA, _replay_block(sim))
+        except BaseException:
+            self._file.close()
+            raise
         self._every_truth = max(
             1, round(1.0 / (sim.scenario.recording.truth_rate_hz * sim.physics_dt))
         )
@@ -447,4 +458,4 @@ class McapLog:
             self._file.close()
 
 
-__all__ = ["CUSTOM_MSGS", "FILE", "REPLAY_METADATA", "McapLog"]
+__all__ = ["CUSTOM_MSGS", "FILE", "REPLAY_METADATA", "McapLog", "utc_ns"]
