@@ -250,3 +250,9 @@ def test_an_imu_gap_is_flown_through_and_listed(run_dir: Path, tmp_path: Path) -
     _rewrite(run_dir / "run.mcap", gap, _drop_imu(300, 401))
     with pytest.raises(LogError, match=re.escape("a gap of 1.020 s after t = 3.000 s")):
         replay(gap, tmp_path / "out2")
+
+
+def test_a_scenario_that_fuses_the_gravimeter_is_refused(run_dir: Path, tmp_path: Path) -> None:
+    """The stored map is the world's draw and no log carries it: refused, not silently off."""
+    with pytest.raises(LogError, match="fuses the gravimeter against a stored map"):
+        replay(run_dir / "run.mcap", tmp_path / "out", scenario=scenarios.load("gravity_aided"))

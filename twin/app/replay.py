@@ -22,6 +22,9 @@ Inputs (a twin run's ``run.mcap`` carries all of them in its ``auv_twin.replay``
   before it are skipped and counted in ``metrics.json``);
 * the depth gauge's conversion constants: the log's, else the scenario's declared ones.
 
+Not replayed: gravity map matching (the stored map is the world's draw, not in a log; a scenario
+that fuses the gravimeter is refused with that reason).
+
 A message's time on the vehicle's clock is its header stamp minus the scenario's start; the
 order the vehicle received them is the log time (then the file's sequence, for messages of one
 instant). Bad logs: a missing topic, a stamp that goes back or repeats on one topic, an image
@@ -281,6 +284,13 @@ def replay(
     variants = scenario.navigation.variants
     if not variants:
         raise LogError("replay: the scenario's [navigation] has no variants to run")
+    g = scenario.gravity
+    if g.map != "none" and g.matching and scenario.sensors.gravimeter is not None:
+        # The stored map is the world's draw, not in the log: matching would silently be off.
+        raise LogError(
+            "replay: the scenario fuses the gravimeter against a stored map, which a log does "
+            "not carry; set [gravity] matching = false to replay without it"
+        )
     types = dict(available)
     compass = any(v != "ins" for v in variants)
     needed = ["imu", "depth"] + (["polarimeter"] if compass else [])
@@ -318,7 +328,7 @@ def replay(
     )
     setup = _Setup(
         path, out, scenario, variants, top, types, meta, compass, needed, calibration,
-        depth_k, start_ns, cfg, knowledge,
+        depth_k, start_ns, cfg, knowledge, metadata.get("auv_twin.provenance", {}),
     )  # fmt: skip
     try:
         metrics = _replay_into(rec, setup)
@@ -346,6 +356,7 @@ class _Setup:
     start_ns: int
     cfg: Any
     knowledge: VehicleKnowledge
+    log_provenance: dict[str, str]
 
 
 def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
@@ -426,6 +437,8 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
         "messages": counts,
         "skipped_before_initial_solution": skipped,
         "provenance": block,
+        # The run that wrote the log, where the log says (a twin run's run.mcap).
+        "log_provenance": {k: json.loads(v) for k, v in setup.log_provenance.items()},
         "scored": has_ref,
         "imu_gaps": gaps,
         # As a run's metrics.json: navigation.variants.<name>.
