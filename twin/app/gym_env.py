@@ -19,8 +19,8 @@ Options (keyword arguments of ``gym.make``):
 * ``observation``: ``"full"`` (every channel, the raw 2448×2048-class mosaic included),
   ``"no_frame"`` (the camera's raw frame left out), ``"image"`` (the frame as a downsampled
   intensity image, ``uint8`` (h, w, 1): super-pixel S0 scaled to the ADC's range, area-averaged
-  to ``image_height`` rows) or ``"stokes"`` (``float32`` (h, w, 3): S0 / saturation, DoP in [0, 1],
-  AoP in [−π/2, π/2], from the vehicle's calibration); the image keys are
+  to ``image_height`` rows) or ``"stokes"`` (``float32`` (h, w, 3): S0 / (2 × saturation), DoP
+  in [0, 1], AoP in [−π/2, π/2], from the vehicle's calibration); the image keys are
   ``<camera>/image`` and ``<camera>/stokes``.
 * ``render_mode="rgb_array"``: :meth:`render` returns the chase camera's view (``uint8``
   (``render_height``, ``render_width``, 3)); without an OpenGL context (``MUJOCO_GL=egl`` or
@@ -182,7 +182,8 @@ class AuvGymEnv(gym.Env):
             saturation_dn=self._cal.saturation_dn,
         )
         h, w = self._image_shape()
-        s0 = np.clip(pol.s0 / np.float32(self._cal.saturation_dn), 0.0, 1.0)
+        # S0 = ½ ΣI_k of four analysers each at most the saturation: at most 2 × saturation.
+        s0 = np.clip(pol.s0 / np.float32(2.0 * self._cal.saturation_dn), 0.0, 1.0)
         if self._observation == "image":
             img = cv2.resize(s0, (w, h), interpolation=cv2.INTER_AREA)
             obs[f"{self._camera}/image"] = np.round(img * 255).astype(np.uint8)[..., None]
