@@ -408,13 +408,19 @@ def _maps_section(stats: dict[str, dict], n_maps: int, n_sens: int) -> list[str]
             f"{st['gradient_median_mgal_per_km']:.2f} | {st['gradient_p90_mgal_per_km']:.2f} | "
             f"{st['correlation_length_m'] / 1e3:.1f} |"
         )
+    main_key = f"random, L = {MAP.correlation_m / 1e3:g} km"
+    sea = next(v for k, v in stats.items() if k.startswith("seafloor"))
+    rng_excess = 100 * (sea["range_mgal"] / MAP.range_mgal - 1)
+    gentler = stats[main_key]["gradient_median_mgal_per_km"] / sea["gradient_median_mgal_per_km"]
     lines += [
         "",
-        "The paper states one statistic of its map, the range (78 mGal); the random maps are "
-        "scaled to it. The correlation length is an assumption (5 km; no published statistic "
-        "of the paper's region was read), so the study runs at 3, 10 and 20 km too (below). The "
-        "physical seafloor map has the paper's range within 30 % but a median gradient "
-        "about 4× gentler than the 5 km maps'.",
+        f"The paper states one statistic of its map, the range ({MAP.range_mgal:g} mGal); the "
+        "random maps are scaled to it. The correlation length is an assumption "
+        f"({MAP.correlation_m / 1e3:g} km; no published statistic of the paper's region was "
+        "read), so the study runs at "
+        + ", ".join(f"{x / 1e3:g}" for x in SENSITIVITY_LENGTHS_M)
+        + f" km too (below). The physical seafloor map's range is {rng_excess:+.0f} % of the "
+        f"paper's, its median gradient {gentler:.1f}× gentler than the {main_key} maps'.",
         "",
     ]
     return lines
