@@ -419,8 +419,9 @@ def _maps_section(stats: dict[str, dict], n_maps: int, n_sens: int) -> list[str]
         f"({MAP.correlation_m / 1e3:g} km; no published statistic of the paper's region was "
         "read), so the study runs at "
         + ", ".join(f"{x / 1e3:g}" for x in SENSITIVITY_LENGTHS_M)
-        + f" km too (below). The physical seafloor map's range is {rng_excess:+.0f} % of the "
-        f"paper's, its median gradient {gentler:.1f}× gentler than the {main_key} maps'.",
+        + f" km too (below). The physical seafloor map's range differs from the paper's by "
+        f"{rng_excess:+.0f} %, and its median gradient is {gentler:.1f}× gentler than the "
+        f"{main_key} maps'.",
         "",
     ]
     return lines
