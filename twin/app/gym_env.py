@@ -186,7 +186,7 @@ class AuvGymEnv(gym.Env):
         s0 = np.clip(pol.s0 / np.float32(2.0 * self._cal.saturation_dn), 0.0, 1.0)
         if self._observation == "image":
             img = cv2.resize(s0, (w, h), interpolation=cv2.INTER_AREA)
-            obs[f"{self._camera}/image"] = np.round(img * 255).astype(np.uint8)[..., None]
+            obs[key] = np.round(img * 255).astype(np.uint8)[..., None]
         else:
             planes = [np.nan_to_num(p, nan=0.0) for p in (s0, pol.dop, pol.aop)]
             img = np.stack(
@@ -194,7 +194,7 @@ class AuvGymEnv(gym.Env):
             )
             img[..., 1] = np.clip(img[..., 1], 0.0, 1.0)
             img[..., 2] = np.clip(img[..., 2], -np.pi / 2, np.pi / 2)
-            obs[f"{self._camera}/stokes"] = img.astype(np.float32)
+            obs[key] = img.astype(np.float32)
         self._last_image = (stamp, obs[key].copy())
         return obs
 

@@ -48,13 +48,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from twin.core.frames import dcm_to_quat, quat_to_dcm
+from twin.record.recorder import utc_ns
 
 if TYPE_CHECKING:
     from twin.app.simulation import Simulation, StepResult
     from twin.scoring.observer import RunScorer
 
 FILE = "run.mcap"
-_EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 
 #: The twin's body axes (x right, y forward, z up) → ROS's base_link (x forward, y left, z up):
 #: a vector given in base_link axes, expressed in body axes.
@@ -100,11 +100,6 @@ def _definitions() -> dict[str, str]:
     return {n: store.generate_msgdef(n, ros_version=2)[0] for n in names}
 
 
-def utc_ns(t: dt.datetime) -> int:
-    """Nanoseconds since 1970 of an aware datetime, exactly (float seconds resolve ~0.2 µs)."""
-    return (t - _EPOCH) // dt.timedelta(microseconds=1) * 1000
-
-
 def _stamp(start_ns: int, t: float) -> dict[str, int]:
     ns = start_ns + round(t * 1e9)
     return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
@@ -117,6 +112,11 @@ def _header(start_ns: int, t: float, frame: str) -> dict[str, Any]:
 def _quat_msg(c: np.ndarray) -> dict[str, float]:
     w, x, y, z = (float(v) for v in dcm_to_quat(c))
     return {"x": x, "y": y, "z": z, "w": w}
+
+
+def _scalar(reading: Any, channel: str) -> float:
+    """A one-number channel (shape () or (1,)) as a float."""
+    return float(np.asarray(reading[channel]).reshape(-1)[0])
 
 
 def _vec(v: Any) -> dict[str, float]:
@@ -324,7 +324,7 @@ class McapLog:
                 "sensor_msgs/msg/FluidPressure",
                 {
                     "header": head,
-                    "fluid_pressure": float(np.asarray(r["pressure_pa"]).reshape(-1)[0]),
+                    "fluid_pressure": _scalar(r, "pressure_pa"),
                     "variance": 0.0,
                 },
                 r.t_delivered,
@@ -337,7 +337,7 @@ class McapLog:
                 "auv_twin_msgs/msg/Gravity",
                 {
                     "header": head,
-                    "gravity_mgal": float(np.asarray(r["gravity_mgal"]).reshape(-1)[0]),
+                    "gravity_mgal": _scalar(r, "gravity_mgal"),
                 },
                 r.t_delivered,
             )
@@ -458,4 +458,4 @@ class McapLog:
             self._file.close()
 
 
-__all__ = ["CUSTOM_MSGS", "FILE", "REPLAY_METADATA", "McapLog", "utc_ns"]
+__all__ = ["CUSTOM_MSGS", "FILE", "REPLAY_METADATA", "McapLog"]

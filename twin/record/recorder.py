@@ -208,6 +208,11 @@ def default_blueprint(variants: Sequence[str] = (), *, gravity: bool = False) ->
     )
 
 
+def utc_ns(t: dt.datetime) -> int:
+    """Nanoseconds since 1970 of an aware datetime, exactly (float seconds resolve ~0.2 µs)."""
+    return (t - _EPOCH) // dt.timedelta(microseconds=1) * 1000
+
+
 #: Where a spawned viewer listens (Rerun's default port).
 VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
 
@@ -380,7 +385,7 @@ class Recorder:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # Exact integer nanoseconds: float seconds since 1970 only resolve ~0.2 us.
-        self._start_ns = (start_utc - _EPOCH) // dt.timedelta(microseconds=1) * 1000
+        self._start_ns = utc_ns(start_utc)
         self._flush_every_s = float(flush_every_s)
         self._path_period_s = float(path_period_s)
         self._jpeg_quality = jpeg_quality
