@@ -326,9 +326,11 @@ def replay(
         compact=False,
         blueprint=default_blueprint(variants),
     )
+    block = provenance(fingerprint=fingerprint(scenario.to_dict()), seed=None)
+    rec.log_properties("provenance", block)
     setup = _Setup(
         path, out, scenario, variants, top, types, meta, compass, needed, calibration,
-        depth_k, start_ns, cfg, knowledge, metadata.get("auv_twin.provenance", {}),
+        depth_k, start_ns, cfg, knowledge, metadata.get("auv_twin.provenance", {}), block,
     )  # fmt: skip
     try:
         metrics = _replay_into(rec, setup)
@@ -357,6 +359,7 @@ class _Setup:
     cfg: Any
     knowledge: VehicleKnowledge
     log_provenance: dict[str, str]
+    provenance: dict[str, Any]
 
 
 def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
@@ -430,7 +433,7 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
     if navs is None:
         raise LogError(f"log {path}: no messages on the mapped topics")
     gaps = _gaps(imu_t)
-    block = provenance(fingerprint=fingerprint(scenario.to_dict()), seed=None)
+    block = setup.provenance
     metrics: dict[str, Any] = {
         "log": str(path),
         "topics": {r: top[r] for r in needed + (["reference"] if has_ref else [])},
