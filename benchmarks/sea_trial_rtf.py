@@ -1,167 +1,298 @@
 """Real-time factor of a sea trial with the polarimeter, the compass and the filters in the loop.
 
-Issue #10's targets, on one core: a 10-minute sea trial with the sea trials' camera (PHX050S-P
-binned 4×4, 612×512, frames at 1 Hz), three filter variants (INS, POL/INS, LIG/INS) and no
-recording ≥ 30× real time; with the Rerun recording ≥ 20×. (Issue #5's was ≥ 10× with two
-variants and the recording.) The no-recording row also says where the wall time goes: each stage
-is timed by a wrapper around its entry point (≈ 1 µs a call, < 1 % of the row).
+Issue #31's targets, on one core: a 10-minute sea trial with the sea trials' camera (PHX050S-P
+binned 4×4, 612×512, frames at 1 Hz), three filter variants (INS, POL/INS, LIG/INS) ≥ 100× real
+time without the recording and ≥ 60× with it; inside it a 612×512 frame ≤ 3 ms, each compass
+method ≤ 2 ms, and the 100 Hz loop (physics, IMU, three filters, depth, scoring, scheduling)
+≤ 5 ms per simulated second. (Issue #10's were 30× / 20×.)
 
-    python benchmarks/sea_trial_rtf.py
+Each row runs in a fresh interpreter pinned to one core; ``--baseline REV`` runs the same rows on
+revision ``REV`` (a temporary git worktree, its own code, this script's driver), interleaved with
+the current tree's, so that old and new are measured side by side under the same machine load
+(the ratio is what the load cannot move). The seeded outputs of the two are compared too: every
+metric of the run but its wall time and provenance, identical or listed where not.
+
+The no-recording row says where the wall time goes: each stage is timed by a wrapper around its
+entry point (≈ 1 µs a call, < 1 % of the row).
+
+    python benchmarks/sea_trial_rtf.py [--baseline REV] [--repeats N]
 """
 
 from __future__ import annotations
 
-import collections
-import dataclasses
-import functools
+import argparse
 import json
 import os
 import platform
+import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import scenarios
-import sensors.imu
-import sensors.polarimeter.render
-import twin.onboard.eskf
-import twin.scoring.observer
-import twin.world.plant
-from twin.app.run import run_scenario
-from twin.onboard.compass.base import CompassMethod
-
-RESULTS = Path(__file__).resolve().parent / "results"
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
 MISSION_S = 600.0
 
-# (label, class, method): the stages of one physics step and of one camera frame.
-STAGES: tuple[tuple[str, Any, str], ...] = (
-    ("polarimeter frame (render + sensor)", sensors.polarimeter.render.Polarimeter, "sample"),
-    ("compass methods (POL, LIG)", CompassMethod, "solve"),
-    ("physics (MuJoCo + hydrodynamics)", twin.world.plant.Plant, "step"),
-    ("INS + covariance (3 filters, 100 Hz)", twin.onboard.eskf.Eskf, "predict_reading"),
-    ("depth + gravity updates (3 filters)", twin.onboard.eskf.Eskf, "update_depth"),
-    ("depth + gravity updates (3 filters)", twin.onboard.eskf.Eskf, "update_gravity"),
-    ("IMU model", sensors.imu.Imu, "sample"),
-    ("scoring against truth", twin.scoring.observer.RunScorer, "on_step"),
+# (label, module, class, method): the stages of one physics step and of one camera frame. A stage
+# a revision does not have is skipped there (the driver runs on old revisions too).
+STAGES: tuple[tuple[str, str, str, str], ...] = (
+    ("polarimeter frame (render + sensor)", "sensors.polarimeter.render", "Polarimeter", "sample"),
+    ("compass methods (POL, LIG)", "twin.onboard.compass.base", "CompassMethod", "solve"),
+    ("physics (MuJoCo + hydrodynamics)", "twin.world.plant", "Plant", "step"),
+    ("INS + covariance (3 filters, 100 Hz)", "twin.onboard.eskf", "Eskf", "predict_reading"),
+    ("depth + gravity updates (3 filters)", "twin.onboard.eskf", "Eskf", "update_depth"),
+    ("depth + gravity updates (3 filters)", "twin.onboard.eskf", "Eskf", "update_gravity"),
+    ("IMU model", "sensors.imu", "Imu", "sample"),
+    ("scoring against truth", "twin.scoring.observer", "RunScorer", "on_step"),
+)
+FRAME, COMPASS = STAGES[0][0], STAGES[1][0]
+
+# One row, in a fresh interpreter on one core: argv[1] = JSON {variants, record, breakdown,
+# stages, mission_s}; prints one JSON line. Uses only what every revision since #10 has.
+_CHILD = r"""
+import collections, dataclasses, functools, importlib, json, os, sys, tempfile, time
+try:
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+except (AttributeError, OSError):
+    pass
+a = json.loads(sys.argv[1])
+import scenarios
+from twin.app.run import run_scenario
+acc = collections.defaultdict(float)
+if a["breakdown"]:
+    for label, mod, cls, name in a["stages"]:
+        try:
+            owner = getattr(importlib.import_module(mod), cls)
+            fn = getattr(owner, name)
+        except (ImportError, AttributeError):
+            continue
+        def timed(*x, _fn=fn, _label=label, **k):
+            t0 = time.perf_counter()
+            try:
+                return _fn(*x, **k)
+            finally:
+                acc[_label] += time.perf_counter() - t0
+        setattr(owner, name, functools.wraps(fn)(timed))
+sc = scenarios.load("sea_trial_10m")
+# The square twice (~800 s of legs), cut at the duration: every row is a full run.
+mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
+sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
+    navigation=dataclasses.replace(sc.navigation, variants=tuple(a["variants"])))
+with tempfile.TemporaryDirectory() as d:
+    t0 = time.perf_counter()
+    m = run_scenario(sc, d, camera=False, record=a["record"])
+    wall = time.perf_counter() - t0
+    rrd = os.path.join(d, "recording.rrd")
+    size = os.path.getsize(rrd) if os.path.exists(rrd) else 0
+outputs = {k: v for k, v in m.items()
+           if k not in ("wall_time_s", "real_time_factor", "provenance", "versions", "recording")}
+print(json.dumps({"wall_s": wall, "sim_s": m["sim_time_s"], "rrd_mb": size / 1e6,
+                  "frames": m["sensor_readings"].get("polarimeter", 0),
+                  "stages_s": dict(acc), "outputs": outputs}, default=str))
+"""
+
+ROWS: tuple[tuple[tuple[str, ...], bool, bool], ...] = (
+    (("ins", "pol", "lig"), False, True),
+    (("ins", "pol", "lig"), True, False),
+    (("ins", "lig"), True, False),
 )
 
 
-@contextmanager
-def stage_timers() -> Iterator[dict[str, float]]:
-    """Accumulate the wall time spent in each of :data:`STAGES` while the block runs."""
-    acc: dict[str, float] = collections.defaultdict(float)
-    saved = []
-    for label, cls, name in STAGES:
-        fn = getattr(cls, name)
-        saved.append((cls, name, fn))
-
-        def timed(*a: Any, _fn: Callable[..., Any] = fn, _label: str = label, **k: Any) -> Any:
-            t0 = time.perf_counter()
-            try:
-                return _fn(*a, **k)
-            finally:
-                acc[_label] += time.perf_counter() - t0
-
-        setattr(cls, name, functools.wraps(fn)(timed))
-    try:
-        yield acc
-    finally:
-        for cls, name, fn in saved:
-            setattr(cls, name, fn)
-
-
-def run(variants: tuple[str, ...], record: bool, breakdown: bool = False) -> dict[str, Any]:
-    sc = scenarios.load("sea_trial_10m")
-    # The square twice (~800 s of legs), cut at 10 minutes: the run ends by duration, not by
-    # the mission, so every row is a full 600 s.
-    mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)  # type: ignore[attr-defined]
-    sc = dataclasses.replace(
-        sc,
-        duration_s=MISSION_S,
-        mission=mission,
-        navigation=dataclasses.replace(sc.navigation, variants=variants),
-    )
-    with tempfile.TemporaryDirectory() as d:
-        ctx = stage_timers() if breakdown else _no_timers()
-        with ctx as acc:
-            t0 = time.perf_counter()
-            m = run_scenario(sc, d, camera=False, record=record)
-            wall = time.perf_counter() - t0
-        rrd = Path(d) / "recording.rrd"
-        size = rrd.stat().st_size if rrd.exists() else 0
-    row: dict[str, Any] = {
+def _row(
+    tree: Path, variants: tuple[str, ...], record: bool, breakdown: bool, mission_s: float
+) -> dict[str, Any]:
+    arg = {
         "variants": list(variants),
-        "recording": record,
-        "sim_s": m["sim_time_s"],
-        "wall_s": round(wall, 2),
-        "rtf": round(m["sim_time_s"] / wall, 1),
-        "rrd_mb": round(size / 1e6, 1),
-        "frames": m["sensor_readings"].get("polarimeter", 0),
+        "record": record,
+        "breakdown": breakdown,
+        "stages": [list(s) for s in STAGES],
+        "mission_s": mission_s,
     }
-    if breakdown:
-        row["stages_s"] = {k: round(v, 2) for k, v in acc.items()}
-    return row
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, json.dumps(arg)],
+        cwd=tree,
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-@contextmanager
-def _no_timers() -> Iterator[dict[str, float]]:
-    yield {}
+def _median_row(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """The run with the median wall time (its own breakdown, so that stages add up)."""
+    ordered = sorted(runs, key=lambda r: r["wall_s"])
+    return ordered[len(ordered) // 2]
+
+
+def _differences(a: Any, b: Any, path: str = "") -> list[str]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in sorted(set(a) | set(b)):
+            out += _differences(a.get(k), b.get(k), f"{path}.{k}" if path else str(k))
+        return out
+    return [] if a == b else [path]
+
+
+def _loop_ms_per_s(row: dict[str, Any]) -> float:
+    """Wall ms per simulated second outside the frame and the compass (the 100 Hz loop)."""
+    st = row["stages_s"]
+    return 1e3 * (row["wall_s"] - st.get(FRAME, 0.0) - st.get(COMPASS, 0.0)) / row["sim_s"]
 
 
 def main() -> int:
-    try:  # one core, as the target says
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    except (AttributeError, OSError):
-        pass
-    three = ("ins", "pol", "lig")
-    rows = [run(three, record=False, breakdown=True), run(three, record=True)]
-    rows.append(run(("ins", "lig"), record=True))
-    env = f"{platform.processor() or platform.machine()}, Python {sys.version.split()[0]}, 1 core"
-    md = [
-        "# Sea trial real-time factor (issues #5 and #10)",
-        "",
-        f"`python benchmarks/sea_trial_rtf.py`. sea_trial_10m's square flown twice, cut at "
-        f"{MISSION_S:.0f} s: physics 100 Hz, IMU 100 Hz, depth 10 Hz, polarimeter 612×512 at 1 Hz "
-        "(render + compass on every frame), no chase camera. Machine: "
-        f"{env}, {time.strftime('%Y-%m-%d')}, load average {os.getloadavg()[0]:.2f}.",
-        "",
-        "| filter variants | recording | sim s | wall s | real-time factor | frames | .rrd |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        md.append(
-            f"| {', '.join(r['variants'])} | {'on' if r['recording'] else 'off'} | "
-            f"{r['sim_s']:.0f} | {r['wall_s']:.1f} | **{r['rtf']:.1f}x** | {r['frames']} | "
-            f"{r['rrd_mb']:.1f} MB |"
-        )
-    md += [
-        "",
-        "Targets (issue #10): three variants, no recording >= 30x; with the recording >= 20x.",
-        "",
-        "## Where the wall time goes (three variants, no recording)",
-        "",
-        "| stage | wall s | share |",
-        "|---|---|---|",
-    ]
-    first = rows[0]
-    for label, secs in sorted(first["stages_s"].items(), key=lambda kv: -kv[1]):
-        md.append(f"| {label} | {secs:.1f} | {100 * secs / first['wall_s']:.0f} % |")
-    rest = first["wall_s"] - sum(first["stages_s"].values())
-    md.append(
-        f"| everything else (loop, sensor scheduling, guidance, autopilot) | {rest:.1f} | "
-        f"{100 * rest / first['wall_s']:.0f} % |"
-    )
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", metavar="REV", help="also run git revision REV, interleaved")
+    ap.add_argument("--repeats", type=int, default=1, help="runs per row and tree (median)")
+    ap.add_argument("--mission-s", type=float, default=MISSION_S, help="simulated seconds a row")
+    args = ap.parse_args()
+    trees: dict[str, Path] = {"current": ROOT}
+    tmp = tempfile.TemporaryDirectory() if args.baseline else None
+    try:
+        if args.baseline and tmp is not None:
+            base = Path(tmp.name) / "baseline"
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(base),
+                 args.baseline],
+                check=True,
+            )  # fmt: skip
+            trees = {args.baseline: base, "current": ROOT}
+        for tree in trees.values():  # numba's on-disk cache and the light-field tables, built
+            _row(tree, ("ins",), False, False, 2.0)  # before anything is timed
+        results: dict[str, list[dict[str, Any]]] = {name: [] for name in trees}
+        for variants, record, breakdown in ROWS:
+            runs: dict[str, list[dict[str, Any]]] = {name: [] for name in trees}
+            for i in range(args.repeats):
+                for name, tree in trees.items():  # interleaved: the same load for both
+                    r = _row(tree, variants, record, breakdown, args.mission_s)
+                    runs[name].append(r)
+                    print(f"{name} {','.join(variants)} rec={record} #{i}: "
+                          f"{r['wall_s']:.1f} s", file=sys.stderr)  # fmt: skip
+            for name in trees:
+                row = _median_row(runs[name])
+                row.update(variants=list(variants), recording=record,
+                           walls_s=[round(r["wall_s"], 2) for r in runs[name]])  # fmt: skip
+                results[name].append(row)
+    finally:
+        if args.baseline and tmp is not None:
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                 str(Path(tmp.name) / "baseline")],
+                check=False,
+            )  # fmt: skip
+            tmp.cleanup()
+    sys.path.insert(0, str(ROOT))
+    from twin.record import provenance as pv
+
+    meta = {
+        "machine": f"{platform.machine()}, Python {sys.version.split()[0]}, one core per row",
+        "cpu_count": os.cpu_count(),
+        "load_average_1_5_15": [round(x, 2) for x in os.getloadavg()],
+        "date": time.strftime("%Y-%m-%d"),
+        "repeats": args.repeats,
+        "baseline": args.baseline,
+        "mission_s": args.mission_s,
+        "provenance": pv.provenance(),
+    }
+    md = _report(results, meta)
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "sea_trial_rtf.md").write_text("\n".join(md) + "\n")
+    slim = {k: [{x: y for x, y in r.items() if x != "outputs"} for r in v]
+            for k, v in results.items()}  # fmt: skip
     (RESULTS / "sea_trial_rtf.json").write_text(
-        json.dumps({"rows": rows, "machine": env}, indent=2) + "\n"
+        json.dumps({"meta": meta, "rows": slim}, indent=2, default=str) + "\n"
     )
     print("\n".join(md))
     return 0
+
+
+def _share(secs: float, row: dict[str, Any]) -> str:
+    return f"{secs:.2f} ({100 * secs / row['wall_s']:.0f} %)"
+
+
+def _report(results: dict[str, list[dict[str, Any]]], meta: dict[str, Any]) -> list[str]:
+    from twin.record import provenance as pv
+
+    names = list(results)
+    cmd = "python benchmarks/sea_trial_rtf.py"
+    if meta["baseline"]:
+        cmd += f" --baseline {meta['baseline']}"
+    md = [
+        "# Sea trial real-time factor (issues #5, #10, #31)",
+        "",
+        f"`{cmd} --repeats {meta['repeats']}`. sea_trial_10m's square flown twice, cut at "
+        f"{meta['mission_s']:.0f} s: physics 100 Hz, IMU 100 Hz, depth 10 Hz, polarimeter "
+        f"612×512 at 1 Hz (render + compass on every frame), no chase camera. {meta['machine']}, "
+        f"{meta['date']}, load average {meta['load_average_1_5_15']}; each row a fresh "
+        f"interpreter, the median of {meta['repeats']} (the rows of the trees interleaved).",
+        f"- {'; '.join(pv.describe(meta['provenance']))}",
+        "",
+        "| code | filter variants | recording | sim s | wall s | real-time factor | frames "
+        "| .rrd |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for i in range(len(ROWS)):
+        for name in names:
+            r = results[name][i]
+            md.append(
+                f"| {name} | {', '.join(r['variants'])} | {'on' if r['recording'] else 'off'} | "
+                f"{r['sim_s']:.0f} | {r['wall_s']:.1f} | **{r['sim_s'] / r['wall_s']:.1f}x** | "
+                f"{r['frames']} | {r['rrd_mb']:.1f} MB |"
+            )
+    firsts = [results[n][0] for n in names]
+    md += [
+        "",
+        "Targets (issue #31): three variants, no recording >= 100x; with the recording >= 60x.",
+        "",
+        "## Where the wall time goes (three variants, no recording)",
+        "",
+        "| stage | " + " | ".join(f"{n}: wall s (share)" for n in names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    labels = sorted(
+        {k for r in firsts for k in r["stages_s"]}, key=lambda k: -firsts[-1]["stages_s"].get(k, 0)
+    )
+    for label in labels:
+        cells = [_share(r["stages_s"].get(label, 0.0), r) for r in firsts]
+        md.append(f"| {label} | " + " | ".join(cells) + " |")
+    rests = [_share(r["wall_s"] - sum(r["stages_s"].values()), r) for r in firsts]
+    md.append(
+        "| everything else (loop, scheduling, guidance, autopilot) | " + " | ".join(rests) + " |"
+    )
+
+    def per(r: dict[str, Any], label: str, n: int) -> str:
+        return f"{1e3 * r['stages_s'].get(label, 0.0) / max(n * r['frames'], 1):.1f}"
+
+    md += [
+        "",
+        "## Against issue #31's per-stage targets (from the same rows)",
+        "",
+        "| quantity | target | " + " | ".join(names) + " |",
+        "|---|---|" + "---|" * len(names),
+        "| 612×512 frame, ms | ≤ 3 | " + " | ".join(per(r, FRAME, 1) for r in firsts) + " |",
+        "| compass, ms per method per frame | ≤ 2 | "
+        + " | ".join(per(r, COMPASS, 2) for r in firsts)
+        + " |",
+        "| 100 Hz loop, ms per simulated second | ≤ 5 | "
+        + " | ".join(f"{_loop_ms_per_s(r):.1f}" for r in firsts)
+        + " |",
+    ]
+    if len(names) == 2:
+        md += ["", "## Same numbers", ""]
+        for i in range(len(ROWS)):
+            a, b = results[names[0]][i], results[names[1]][i]
+            diff = _differences(a["outputs"], b["outputs"])
+            what = "identical" if not diff else "different in " + ", ".join(diff[:12])
+            if len(diff) > 12:
+                what += f" and {len(diff) - 12} more"
+            md.append(
+                f"- {', '.join(a['variants'])}, recording {'on' if a['recording'] else 'off'}: "
+                f"the seeded outputs of {names[0]} and current are {what}."
+            )
+    return md
 
 
 if __name__ == "__main__":

@@ -22,11 +22,42 @@ model give each pixel's field angle), so a calibration error shows up here too.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
+
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
 from twin.onboard.polarization import PolarizationImage
+
+
+@dataclass(frozen=True, slots=True)
+class LensInverse:
+    """Per-pixel factors of the inverse lens transfer on one pixel grid (geometry only).
+
+    ``cos2``, ``sin2``: cos 2φ, sin 2φ of each pixel's radial direction; ``a``, ``d``: the bench
+    table's a and D at its field angle; ``k`` = 1 / (T̄ (a − D²)); ``tc`` = T̄ c.
+    """
+
+    cos2: NDArray[np.float64]
+    sin2: NDArray[np.float64]
+    a: NDArray[np.float64]
+    d: NDArray[np.float64]
+    k: NDArray[np.float64]
+    tc: NDArray[np.float64]
+
+
+def lens_inverse(
+    calibration: CameraCalibration, u: NDArray[np.floating], v: NDArray[np.floating]
+) -> LensInverse:
+    """The inverse lens transfer's factors at frame coordinates (u, v) (calibration's table)."""
+    tab = np.asarray(calibration.lens_table, dtype=np.float64)
+    cu, cv = calibration.principal_point_px
+    du, dv = np.asarray(u, np.float64) - cu, np.asarray(v, np.float64) - cv
+    theta = calibration.theta_of_rho(np.hypot(du, dv))
+    t, d, a, c = (np.interp(theta, tab[:, 0], tab[:, k]) for k in (1, 2, 3, 4))
+    phi2 = 2.0 * np.arctan2(dv, du)
+    return LensInverse(np.cos(phi2), np.sin(phi2), a, d, 1.0 / (t * (a - d * d)), t * c)
 
 
 def compensate(
@@ -43,23 +74,77 @@ def compensate(
         u: Frame column coordinate of each of ``img``'s pixels (same shape as its layers).
         v: Frame row coordinate of each.
     """
-    table = calibration.lens_table
-    if not table:
+    if not calibration.lens_table:
         return img
-    tab = np.asarray(table, dtype=np.float64)
-    cu, cv = calibration.principal_point_px
-    du, dv = np.asarray(u, np.float64) - cu, np.asarray(v, np.float64) - cv
-    theta = calibration.theta_of_rho(np.hypot(du, dv))
-    t, d, a, c = (np.interp(theta, tab[:, 0], tab[:, k]) for k in (1, 2, 3, 4))
-    phi2 = 2.0 * np.arctan2(dv, du)
-    cos2, sin2 = np.cos(phi2), np.sin(phi2)
+    return apply_inverse(img, lens_inverse(calibration, u, v))
+
+
+def compensate_grid(
+    img: PolarizationImage,
+    calibration: CameraCalibration,
+    kind: str,
+    origin: tuple[int, int] = (0, 0),
+    block: int = 2,
+) -> PolarizationImage:
+    """:func:`compensate` on a :func:`grid_uv` grid, its factors computed once per calibration.
+
+    The grid's geometry does not change from frame to frame, so its factors are kept in the
+    calibration's cache (the same numbers as :func:`compensate` computes, bit for bit).
+    """
+    if not calibration.lens_table:
+        return img
+    return apply_inverse(img, _grid_inverse(calibration, img.shape, kind, origin, block))
+
+
+def compensate_at(
+    img: PolarizationImage,
+    calibration: CameraCalibration,
+    idx: NDArray[np.integer],
+    kind: str,
+    origin: tuple[int, int] = (0, 0),
+    block: int = 2,
+) -> PolarizationImage:
+    """:func:`compensate_grid` at the flat pixel indices ``idx`` only: 1-D layers, in idx order.
+
+    A method that uses the pixels of Snell's window only pays for those (a quarter of the
+    image circle at 10 m); each value is the full grid's at that pixel.
+    """
+    flat = PolarizationImage(
+        *(x.reshape(-1)[idx] for x in (img.s0, img.s1, img.s2, img.aop, img.dop, img.saturated))
+    )
+    if not calibration.lens_table:
+        return flat
+    inv = _grid_inverse(calibration, img.shape, kind, origin, block)
+    return apply_inverse(
+        flat, LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse)))
+    )
+
+
+def _grid_inverse(
+    calibration: CameraCalibration,
+    shape: tuple[int, int],
+    kind: str,
+    origin: tuple[int, int],
+    block: int,
+) -> LensInverse:
+    """The factors of one grid, kept in the calibration's cache (flat, C order)."""
+    key = ("lens_inverse", shape, kind, origin, block)
+    inv = calibration._cache.get(key)
+    if inv is None:
+        inv = lens_inverse(calibration, *grid_uv(shape, kind, origin, block))
+        calibration._cache[key] = inv
+    return inv
+
+
+def apply_inverse(img: PolarizationImage, inv: LensInverse) -> PolarizationImage:
+    """Undo the lens transfer (module docstring's equations) with precomputed factors."""
+    cos2, sin2, a, d, k = inv.cos2, inv.sin2, inv.a, inv.d, inv.k
     s0m, s1m, s2m = (np.asarray(x, np.float64) for x in (img.s0, img.s1, img.s2))
     r1 = cos2 * s1m + sin2 * s2m  # radial frame
     r2 = -sin2 * s1m + cos2 * s2m
-    k = 1.0 / (t * (a - d * d))
     s0 = (a * s0m - d * r1) * k
     q1 = (r1 - d * s0m) * k
-    q2 = r2 / (t * c)
+    q2 = r2 / inv.tc
     s1 = cos2 * q1 - sin2 * q2
     s2 = sin2 * q1 + cos2 * q2
     lin = np.hypot(s1, s2)
@@ -95,4 +180,12 @@ def grid_uv(
     return size * c + (size - 1) / 2.0 + u0, size * r + (size - 1) / 2.0 + v0
 
 
-__all__ = ["compensate", "grid_uv"]
+__all__ = [
+    "LensInverse",
+    "apply_inverse",
+    "compensate",
+    "compensate_at",
+    "compensate_grid",
+    "grid_uv",
+    "lens_inverse",
+]

@@ -108,6 +108,8 @@ class PolarizationImage:
 def analysis_pinv(layout_deg: Layout = IMX250MZR_LAYOUT_DEG) -> NDArray[np.float64]:
     """The (3, 2, 2) least-squares weights W so that ``S_j = Σ_rc W[j, r, c] · I[r, c]``.
 
+    Computed once per layout (a fresh copy each call: a caller may change it).
+
     Rows of the measurement matrix are ``½ [1, cos 2α, sin 2α]`` for the layout's four analysers;
     W is its Moore–Penrose inverse. For any arrangement of 0/45/90/135° it is exactly
     ``S0 = ½ΣI``, ``S1 = I0 − I90``, ``S2 = I45 − I135``.
@@ -115,6 +117,17 @@ def analysis_pinv(layout_deg: Layout = IMX250MZR_LAYOUT_DEG) -> NDArray[np.float
     Raises:
         ValueError: If the layout is not 2×2 of finite angles or cannot determine S1 and S2.
     """
+    try:
+        key = tuple(tuple(float(x) for x in row) for row in layout_deg)
+        hash(key)
+    except (TypeError, ValueError):
+        key = None  # not a 2×2 of numbers: the check below says what is wrong
+    if key is not None and len(key) == 2 and all(len(r) == 2 for r in key):
+        return _cached_pinv(key).copy()
+    return _pinv(layout_deg)
+
+
+def _pinv(layout_deg: Layout) -> NDArray[np.float64]:
     a = np.asarray(layout_deg, dtype=np.float64)
     if a.shape != (2, 2) or not np.all(np.isfinite(a)):
         raise ValueError(f"layout_deg = {layout_deg!r}: must be 2×2 finite analyser angles (deg)")
@@ -127,6 +140,9 @@ def analysis_pinv(layout_deg: Layout = IMX250MZR_LAYOUT_DEG) -> NDArray[np.float
     w = np.linalg.pinv(m)  # (3, 4)
     w[np.abs(w) < 1e-12] = 0.0  # exact zeros let the fast paths skip terms
     return w.reshape(3, 2, 2)
+
+
+_cached_pinv = functools.lru_cache(maxsize=16)(_pinv)
 
 
 def _check_raw(raw: np.ndarray) -> None:

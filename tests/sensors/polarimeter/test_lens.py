@@ -12,7 +12,7 @@ import sensors
 from sensors.polarimeter.bench import measure_lens
 from sensors.polarimeter.hardware import CalibrationUncertainty, HardwareErrors, MountingError
 from sensors.polarimeter.lens import LensPolarization, fold_radial, radial_mueller
-from twin.onboard.lens import compensate, grid_uv
+from twin.onboard.lens import compensate, compensate_grid, grid_uv
 from twin.onboard.polarization import stokes_from_mosaic
 
 LENS_ONLY = HardwareErrors(CalibrationUncertainty.ideal(), MountingError.ideal())
@@ -115,6 +115,26 @@ def test_the_lens_turns_the_aop_at_the_edge_and_the_bench_correction_undoes_it()
     assert abs(np.median(raw_err[centre])) < 0.1
     # The bench's correction takes it out.
     assert abs(np.median(fixed_err[edge])) < 0.1 * abs(expected)
+
+
+def test_the_cached_grid_compensation_equals_the_per_call_one_bit_for_bit():
+    # compensate_grid keeps a grid's factors in the calibration (issue #31): the same numbers.
+    cam = sensors.create("polarimeter", "ideal_bin4")
+    cam.configure_hardware(LENS_ONLY)
+    cal = cam.draw_unit(np.random.default_rng(3)).calibration
+    st, _ = _uniform_frame(cam, 0.3)
+    raw = cam._dofp.render_mosaic(st, 1000.0, np.random.default_rng(1))
+    img = stokes_from_mosaic(raw, cal.layout_deg, black_level_dn=cal.black_level_dn)
+    for kind, block in (("superpixel", 2), ("block", 2)):
+        want = compensate(img, cal, *grid_uv(img.shape, kind, block=block))
+        for _ in range(2):  # computed, then from the cache
+            got = compensate_grid(img, cal, kind, block=block)
+            for name in ("s0", "s1", "s2", "aop", "dop"):
+                np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+    assert sum(1 for k in cal._cache if k[0] == "lens_inverse") == 2
+    # A crop elsewhere in the frame is another grid: its own factors, not the first one's.
+    crop = compensate_grid(img, cal, "superpixel", origin=(2, 0))
+    assert not np.array_equal(crop.aop, want.aop)
 
 
 def test_without_compensation_the_vehicle_gets_no_table_and_an_ideal_lens_changes_nothing():

@@ -72,7 +72,7 @@ from twin.onboard.compass.base import (
     no_fix,
     register,
 )
-from twin.onboard.lens import compensate, grid_uv
+from twin.onboard.lens import compensate_grid
 from twin.onboard.polarization import stokes_from_mosaic
 
 FloatArray = NDArray[np.float64]
@@ -640,7 +640,7 @@ class _Liang2020(CompassMethod):
             saturation_dn=calibration.saturation_dn,
         )
         if calibration.lens_table:
-            pol = compensate(pol, calibration, *grid_uv(pol.shape, kind))
+            pol = compensate_grid(pol, calibration, kind)
         mask = (
             ~pol.saturated
             & (pol.s0 > np.float32(cfg.min_s0_dn))

@@ -67,7 +67,7 @@ from twin.onboard.compass.lig import (
     resolve_by_intensity,
     smallest_eigenvector,
 )
-from twin.onboard.lens import compensate, grid_uv
+from twin.onboard.lens import compensate_at
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
 
@@ -126,25 +126,34 @@ class PolConfig:
 def binned_stokes(
     raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
 ) -> PolarizationImage:
-    """Stokes on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion."""
+    """Stokes on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion.
+
+    The lens's polarization is not undone here: :func:`window_stokes` does it at the pixels
+    the method uses.
+    """
     m = geo.m
     h, w = geo.cal.height_px, geo.cal.width_px
     kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
     if m == 2:
-        img = stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
-    else:
-        r = raw[: h * m, : w * m]
-        mos = np.empty((2 * h, 2 * w), np.float32)
-        for i in range(2):
-            for j in range(2):
-                plane = r[i::2, j::2].astype(np.float32)
-                mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
-        img = stokes_from_mosaic(mos, **kwargs)
-    if not calibration.lens_table:
-        return img
+        return stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
+    r = raw[: h * m, : w * m]
+    mos = np.empty((2 * h, 2 * w), np.float32)
+    for i in range(2):
+        for j in range(2):
+            plane = r[i::2, j::2].astype(np.float32)
+            mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
+    return stokes_from_mosaic(mos, **kwargs)
+
+
+def window_stokes(
+    pol: PolarizationImage,
+    calibration: CameraCalibration,
+    geo: AnalysisGeometry,
+    idx: NDArray[np.integer],
+) -> PolarizationImage:
+    """The analysis grid's Stokes at flat pixels ``idx``, the lens's polarization undone (1-D)."""
     # Output (i, j) is the mean of raw block (m i … m i + m − 1, m j …): centred at m j + (m − 1)/2.
-    u, v = grid_uv(img.shape, "block", block=m)
-    return compensate(img, calibration, u, v)
+    return compensate_at(pol, calibration, idx, "block", block=geo.m)
 
 
 def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDArray, NDArray]:
@@ -174,10 +183,12 @@ class PolCompass(CompassMethod):
         theta_c = critical_angle(n_w)
         in_window = geo.valid & (cos_r > math.cos(theta_c))
         core = geo.valid & (cos_r > math.cos(max(theta_c - cfg.window_margin_rad, 0.0)))
-        n_window = int(in_window.sum())
+        win_idx = np.flatnonzero(in_window)
+        n_window = int(win_idx.size)
         if n_window < cfg.min_pixels:
             return no_fix(self.name, "Snell's window is (almost) out of view", n_window)
-        mean_i = float(pol.s0[in_window].mean())
+        pw = window_stokes(pol, calibration, geo, win_idx)  # 1-D, the window's pixels
+        mean_i = float(pw.s0.mean())
         if not (mean_i >= cfg.min_signal_dn):
             return no_fix(
                 self.name,
@@ -185,10 +196,10 @@ class PolCompass(CompassMethod):
                 n_window,
                 mean_intensity_dn=mean_i,
             )
-        use = core & (pol.s0 > 0) & (pol.dop >= cfg.min_dop)
+        use = core.reshape(-1)[win_idx] & (pw.s0 > 0) & (pw.dop >= cfg.min_dop)
         if cfg.exclude_saturated:
-            use &= ~sat
-        idx = np.flatnonzero(use)
+            use &= ~sat.reshape(-1)[win_idx]
+        idx = win_idx[use]
         if idx.size < cfg.min_pixels:
             return no_fix(
                 self.name,
@@ -199,7 +210,7 @@ class PolCompass(CompassMethod):
 
         # AoP → 3-D E-vector (lens mapping), camera frame; through a flat port the components
         # in the camera-meridional basis are carried over to the bent ray (port Fresnel ignored).
-        aop = pol.aop.reshape(-1)[idx].astype(np.float64)
+        aop = pw.aop[use].astype(np.float64)
         lens_rays = geo.cal.rays("interpolate")[0].reshape(-1, 3)[idx]
         e_c = _evectors_at(geo.cal, aop, idx)
         p_c = geo.rays.reshape(-1, 3)[idx]
@@ -213,7 +224,7 @@ class PolCompass(CompassMethod):
         e_h = e_c @ c_c_h.T
         e_t, e_p = meridian_basis(p_h)
         psi_w = np.arctan2(np.einsum("ij,ij->i", e_h, e_p), np.einsum("ij,ij->i", e_h, e_t))
-        dop = pol.dop.reshape(-1)[idx].astype(np.float64)
+        dop = pw.dop[use].astype(np.float64)
         d_air, _, _ = refract_to_air(p_h, n_w)
         if cfg.fresnel:
             t_s, t_p = fresnel_amplitudes(d_air[:, 2], p_h[:, 2], n_w)
@@ -236,9 +247,8 @@ class PolCompass(CompassMethod):
                 eigen_gap=sol.eigen_gap,
             )
         s_h = sol.s if sol.s[2] >= 0 else -sol.s  # daytime: the sun is above the horizon
-        win_idx = np.flatnonzero(in_window)
         _, contrast, _ = resolve_by_intensity(
-            s_h, geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T, pol.s0.reshape(-1)[win_idx], 0.0
+            s_h, geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T, pw.s0, 0.0
         )
         c_b_h = ctx.c_b_h
         cov_b = c_b_h.T @ sol.covariance(1.0, cfg.sigma_floor_rad) @ c_b_h

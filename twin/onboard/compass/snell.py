@@ -102,7 +102,7 @@ from twin.onboard.compass.base import (
     no_fix,
     register,
 )
-from twin.onboard.lens import compensate, grid_uv
+from twin.onboard.lens import compensate_grid
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
 
 
@@ -131,8 +131,7 @@ def to_stokes(
     )
     if not calibration.lens_table:
         return img
-    u, v = grid_uv(img.shape, grid, origin)
-    return compensate(img, calibration, u, v)
+    return compensate_grid(img, calibration, grid, origin)
 
 
 def meridian_basis(d: FloatArray) -> tuple[FloatArray, FloatArray]:
