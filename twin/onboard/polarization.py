@@ -105,6 +105,26 @@ class PolarizationImage:
         return self.s0.shape  # type: ignore[return-value]
 
 
+@dataclass(frozen=True, slots=True)
+class StokesPlanes:
+    """S0, S1, S2 of one frame without the angles (float32, DN above black level).
+
+    What a method that derives AoP and DoP at a few pixels only (after its own corrections)
+    starts from: :func:`stokes_planes_from_mosaic`; the layers mean what
+    :class:`PolarizationImage`'s do.
+    """
+
+    s0: NDArray[np.float32]
+    s1: NDArray[np.float32]
+    s2: NDArray[np.float32]
+    saturated: NDArray[np.bool_]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns) of every layer."""
+        return self.s0.shape  # type: ignore[return-value]
+
+
 def analysis_pinv(layout_deg: Layout = IMX250MZR_LAYOUT_DEG) -> NDArray[np.float64]:
     """The (3, 2, 2) least-squares weights W so that ``S_j = Σ_rc W[j, r, c] · I[r, c]``.
 
@@ -310,6 +330,48 @@ def _superpixel_image(
             brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
             sat[out] = brightest >= saturation_dn
     return PolarizationImage(s0=s0, s1=s1, s2=s2, aop=aop, dop=dop, saturated=sat)
+
+
+def aop_dop(
+    s0: NDArray[np.float32], s1: NDArray[np.float32], s2: NDArray[np.float32]
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """AoP and DoP of float32 Stokes layers (any shape), as :func:`stokes_from_mosaic` has them."""
+    s0, s1, s2 = (np.ascontiguousarray(x, dtype=np.float32) for x in (s0, s1, s2))
+    aop, dop = np.empty_like(s0), np.empty_like(s0)
+    _aop_dop(s0, s1, s2, aop, dop)
+    return aop, dop
+
+
+def stokes_planes_from_mosaic(
+    raw: np.ndarray,
+    layout_deg: Layout = IMX250MZR_LAYOUT_DEG,
+    black_level_dn: float = 0.0,
+    saturation_dn: float | None = None,
+) -> StokesPlanes:
+    """:func:`stokes_from_mosaic`'s super-pixel S0, S1, S2 without AoP and DoP (same checks).
+
+    For a method that needs the angles at some pixels only (:func:`aop_dop` there): the angles
+    are a third of the super-pixel inversion's time.
+    """
+    _check_raw(raw)
+    if not math.isfinite(black_level_dn):
+        raise ValueError(f"black_level_dn = {black_level_dn!r}: must be finite")
+    w = analysis_pinv(layout_deg)
+    raw = _as_cv(raw)
+    h, wd = raw.shape
+    s0, s1, s2 = (np.empty((h // 2, wd // 2), np.float32) for _ in range(3))
+    sat = np.zeros((h // 2, wd // 2), bool)
+    step = _band_rows(wd)
+    for r0 in range(0, h, step):
+        r1 = min(r0 + step, h)
+        out = slice(r0 // 2, r1 // 2)
+        planes = _sub_lattices(raw[r0:r1])
+        s0[out], s1[out], s2[out] = _superpixel(planes, w, black_level_dn)
+        if saturation_dn is not None:
+            p = planes
+            brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
+            sat[out] = brightest >= saturation_dn
+    return StokesPlanes(s0, s1, s2, sat)
 
 
 def _interpolated_image(

@@ -70,6 +70,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
+from twin.onboard.compass import kernels
 from twin.onboard.compass.base import (
     CompassContext,
     CompassFix,
@@ -284,6 +285,12 @@ def smallest_eigenvector(vecs: FloatArray, weights: FloatArray | None = None) ->
     return EigenSolution(e[:, 0].copy(), lam, e, len(vecs))
 
 
+def eigen_from_moments(mat: FloatArray, wsum: float, n: int) -> EigenSolution:
+    """:func:`smallest_eigenvector` from Σ w v vᵀ and Σ w summed elsewhere (compiled kernels)."""
+    lam, e = np.linalg.eigh(mat / wsum)
+    return EigenSolution(e[:, 0].copy(), lam, e, n)
+
+
 def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     if radius <= 0 or not mask.any():
         return mask
@@ -473,24 +480,28 @@ class LigCompass(CompassMethod):
                 int(idx.size),
             )
 
-        p_c = geo.rays.reshape(-1, 3)[idx]
-        p_h = p_c @ c_c_h.T
         if cfg.mapping == "paper":
+            p_c = geo.rays.reshape(-1, 3)[idx]
+            p_h = p_c @ c_c_h.T
             normals = _paper_normals(
                 p_c, p_h, gx.reshape(-1)[idx], gy.reshape(-1)[idx], n_w, cfg.eq12_as_printed
             )
-            nn = np.ones(len(normals))
-            ok = np.ones(len(normals), dtype=bool)
+            if len(normals) < cfg.min_pixels:
+                return no_fix(self.name, "too few pixels with a usable gradient", len(normals))
+            weights = None
+            if cfg.weighting == "gradient":  # |n| = 1 here: 1 / I
+                weights = 1.0 / np.maximum(filt.reshape(-1)[idx].astype(np.float64), 1e-6)
+            sol = smallest_eigenvector(normals, weights)  # eqs. 13–15
         else:
-            normals, nn, ok = _jacobian_normals(geo, idx, c_c_h, p_h, gx, gy, n_w, cfg.sphere)
-        if len(normals) < cfg.min_pixels:
-            return no_fix(self.name, "too few pixels with a usable gradient", len(normals))
-        weights = None
-        if cfg.weighting == "gradient":
-            ival = np.maximum(filt.reshape(-1)[idx][ok].astype(np.float64), 1e-6)
-            weights = nn[ok] / ival
-
-        sol = smallest_eigenvector(normals, weights)  # eqs. 13–15
+            # The Jacobian mapping, compiled (kernels.lig_moments = _jacobian_normals summed).
+            mat, wsum, n_ok = kernels.lig_moments(
+                idx, geo.rays.reshape(-1, 3), geo.du.reshape(-1, 3), geo.dv.reshape(-1, 3),
+                gx.reshape(-1), gy.reshape(-1), filt.reshape(-1), c_c_h,
+                n_w if cfg.sphere == "air" else 1.0, cfg.weighting == "gradient",
+            )  # fmt: skip
+            if n_ok < cfg.min_pixels:
+                return no_fix(self.name, "too few pixels with a usable gradient", n_ok)
+            sol = eigen_from_moments(mat, wsum, n_ok)  # eqs. 13–15
         return self._finish(sol, cfg, frame, in_window, geo, c_c_h, filt, sun_enu, k, sigma_g,
                             mean_i)  # fmt: skip
 

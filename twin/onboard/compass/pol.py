@@ -8,9 +8,11 @@ the bending of the ray by Snell's law and the deflection of the polarization pla
 equations) and optics.md §2.7 (inverting the full Fresnel (I, Q, U) block is exact, correcting
 only the AoP is biased for partially polarized light) define the method implemented here:
 
-1. Stokes S0, S1, S2 → AoP, DoP with :func:`twin.onboard.polarization.stokes_from_mosaic` on the
+1. Stokes S0, S1, S2 (:func:`twin.onboard.polarization.stokes_planes_from_mosaic`) on the
    analysis grid (the raw mosaic binned m/2 × m/2 per analyser phase first, which equals the
-   block mean of the super-pixel Stokes because the inversion is linear — and costs a quarter).
+   block mean of the super-pixel Stokes because the inversion is linear — and costs a quarter);
+   at the in-window pixels of step 2 the lens's polarization undone and AoP, DoP derived
+   (:func:`window_stokes`).
 2. In-window pixels with the attitude hint, eqs. 6–7 of the LIG paper (as in LIG; same margin).
 3. Each pixel's AoP → 3-D E-vector in the camera frame (``CameraCalibration.evectors``, the lens's
    polarization mapping) → level frame (C_b^h C_c^b) → its angle ψ_w from the in-water meridian
@@ -48,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
+from twin.onboard.compass import kernels
 from twin.onboard.compass.base import (
     CompassFix,
     CompassMethod,
@@ -60,6 +63,7 @@ from twin.onboard.compass.lig import (
     AnalysisGeometry,
     block_saturation,
     critical_angle,
+    eigen_from_moments,
     frame_prologue,
     level_rotation,
     meridian_basis,
@@ -68,7 +72,7 @@ from twin.onboard.compass.lig import (
     smallest_eigenvector,
 )
 from twin.onboard.lens import compensate_at
-from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
+from twin.onboard.polarization import PolarizationImage, StokesPlanes, stokes_planes_from_mosaic
 
 
 @dataclass(frozen=True)
@@ -125,28 +129,28 @@ class PolConfig:
 
 def binned_stokes(
     raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
-) -> PolarizationImage:
-    """Stokes on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion.
+) -> StokesPlanes:
+    """S0–S2 on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion.
 
-    The lens's polarization is not undone here: :func:`window_stokes` does it at the pixels
-    the method uses.
+    No angles, and the lens's polarization not undone: :func:`window_stokes` does both at the
+    pixels the method uses.
     """
     m = geo.m
     h, w = geo.cal.height_px, geo.cal.width_px
     kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
     if m == 2:
-        return stokes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
+        return stokes_planes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
     r = raw[: h * m, : w * m]
     mos = np.empty((2 * h, 2 * w), np.float32)
     for i in range(2):
         for j in range(2):
             plane = r[i::2, j::2].astype(np.float32)
             mos[i::2, j::2] = cv2.resize(plane, (w, h), interpolation=cv2.INTER_AREA)
-    return stokes_from_mosaic(mos, **kwargs)
+    return stokes_planes_from_mosaic(mos, **kwargs)
 
 
 def window_stokes(
-    pol: PolarizationImage,
+    pol: StokesPlanes,
     calibration: CameraCalibration,
     geo: AnalysisGeometry,
     idx: NDArray[np.integer],
@@ -208,37 +212,19 @@ class PolCompass(CompassMethod):
                 int(idx.size),
             )
 
-        # AoP → 3-D E-vector (lens mapping), camera frame; through a flat port the components
-        # in the camera-meridional basis are carried over to the bent ray (port Fresnel ignored).
         aop = pw.aop[use].astype(np.float64)
-        lens_rays = geo.cal.rays("interpolate")[0].reshape(-1, 3)[idx]
-        e_c = _evectors_at(geo.cal, aop, idx)
-        p_c = geo.rays.reshape(-1, 3)[idx]
-        if calibration.housing == "flat":
-            lt, lp = meridian_basis(lens_rays)
-            wt, wp = meridian_basis(p_c)
-            a = np.einsum("ij,ij->i", e_c, lt)
-            b = np.einsum("ij,ij->i", e_c, lp)
-            e_c = a[:, None] * wt + b[:, None] * wp
-        p_h = p_c @ c_c_h.T
-        e_h = e_c @ c_c_h.T
-        e_t, e_p = meridian_basis(p_h)
-        psi_w = np.arctan2(np.einsum("ij,ij->i", e_h, e_p), np.einsum("ij,ij->i", e_h, e_t))
         dop = pw.dop[use].astype(np.float64)
-        d_air, _, _ = refract_to_air(p_h, n_w)
-        if cfg.fresnel:
-            t_s, t_p = fresnel_amplitudes(d_air[:, 2], p_h[:, 2], n_w)
-            big_a = 0.5 * (t_p * t_p + t_s * t_s)
-            big_b = 0.5 * (t_p * t_p - t_s * t_s)
-            q_a = big_a * dop * np.cos(2 * psi_w) - big_b
-            u_a = t_p * t_s * dop * np.sin(2 * psi_w)
-            psi_a = 0.5 * np.arctan2(u_a, q_a)
+        if geo.cal.polarization_mapping == "meridional":
+            r_s, t_s = geo.cal.sensor_axes("interpolate")
+            mat, wsum = kernels.pol_moments(
+                idx, aop, dop, geo.rays.reshape(-1, 3), r_s.reshape(-1, 3), t_s.reshape(-1, 3),
+                geo.cal.rays("interpolate")[0].reshape(-1, 3), c_c_h, n_w, cfg.fresnel,
+                calibration.housing == "flat", cfg.weighting == "dop",
+            )  # fmt: skip
+            sol = eigen_from_moments(mat, wsum, int(idx.size))
         else:
-            psi_a = psi_w
-        e_i, e_phi = meridian_basis(d_air)
-        evec = np.cos(psi_a)[:, None] * e_i + np.sin(psi_a)[:, None] * e_phi
-        weights = dop if cfg.weighting == "dop" else None
-        sol = smallest_eigenvector(evec, weights)
+            evec = pol_constraints(geo, calibration, idx, aop, dop, c_c_h, n_w, cfg.fresnel)
+            sol = smallest_eigenvector(evec, dop if cfg.weighting == "dop" else None)
         if not (sol.eigen_gap >= cfg.min_eigen_gap):
             return no_fix(
                 self.name,
@@ -267,6 +253,50 @@ class PolCompass(CompassMethod):
             mean_dop=float(dop.mean()),
             mean_intensity_dn=mean_i,
         )
+
+
+def pol_constraints(
+    geo: AnalysisGeometry,
+    calibration: CameraCalibration,
+    idx: NDArray[np.intp],
+    aop: NDArray[np.float64],
+    dop: NDArray[np.float64],
+    c_c_h: NDArray[np.float64],
+    n_w: float,
+    fresnel: bool,
+) -> NDArray[np.float64]:
+    """POL's air-side E-vectors (k, 3) of the pixels ``idx`` (step 3), with numpy.
+
+    The reference for :func:`twin.onboard.compass.kernels.pol_moments` (which the method runs
+    for the meridional mapping), and the path for the orthographic one.
+    """
+    # AoP → 3-D E-vector (lens mapping), camera frame; through a flat port the components
+    # in the camera-meridional basis are carried over to the bent ray (port Fresnel ignored).
+    lens_rays = geo.cal.rays("interpolate")[0].reshape(-1, 3)[idx]
+    e_c = _evectors_at(geo.cal, aop, idx)
+    p_c = geo.rays.reshape(-1, 3)[idx]
+    if calibration.housing == "flat":
+        lt, lp = meridian_basis(lens_rays)
+        wt, wp = meridian_basis(p_c)
+        a = np.einsum("ij,ij->i", e_c, lt)
+        b = np.einsum("ij,ij->i", e_c, lp)
+        e_c = a[:, None] * wt + b[:, None] * wp
+    p_h = p_c @ c_c_h.T
+    e_h = e_c @ c_c_h.T
+    e_t, e_p = meridian_basis(p_h)
+    psi_w = np.arctan2(np.einsum("ij,ij->i", e_h, e_p), np.einsum("ij,ij->i", e_h, e_t))
+    d_air, _, _ = refract_to_air(p_h, n_w)
+    if fresnel:
+        t_s, t_p = fresnel_amplitudes(d_air[:, 2], p_h[:, 2], n_w)
+        big_a = 0.5 * (t_p * t_p + t_s * t_s)
+        big_b = 0.5 * (t_p * t_p - t_s * t_s)
+        q_a = big_a * dop * np.cos(2 * psi_w) - big_b
+        u_a = t_p * t_s * dop * np.sin(2 * psi_w)
+        psi_a = 0.5 * np.arctan2(u_a, q_a)
+    else:
+        psi_a = psi_w
+    e_i, e_phi = meridian_basis(d_air)
+    return np.cos(psi_a)[:, None] * e_i + np.sin(psi_a)[:, None] * e_phi
 
 
 #: POL as the LIG paper describes it (its eqs. 6–7 and Remark 1; ref. [22] itself is not in the
