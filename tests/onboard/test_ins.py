@@ -282,3 +282,31 @@ def test_step_reading_uses_time_stamps_and_is_deterministic() -> None:
     assert a.t == 5.0
     assert np.array_equal(a.c_bn, b.c_bn) and np.array_equal(a.v_enu, b.v_enu)
     assert (a.lat_rad, a.lon_rad, a.h_m) == (b.lat_rad, b.lon_rad, b.h_m)
+
+
+@pytest.mark.parametrize("free_air", [False, True])
+def test_the_compiled_step_is_the_python_step_bit_for_bit(free_air) -> None:
+    # twin.onboard.mechanization.advance replaces StrapdownIns._advance_reference (issue #31):
+    # the same state after a step, to the last bit, over random states and increments.
+    rng = np.random.default_rng(7)
+    fast = StrapdownIns(init_state((0.0, 0.0, 0.0)), InsConfig(free_air_gravity=free_air))
+    slow = StrapdownIns(init_state((0.0, 0.0, 0.0)), InsConfig(free_air_gravity=free_air))
+    for _ in range(500):
+        c = euler_to_dcm(*rng.uniform(-math.pi / 2, math.pi / 2, 3)).reshape(-1)
+        state = (
+            float(rng.uniform(-1.4, 1.4)),
+            float(rng.uniform(-3.0, 3.0)),
+            float(rng.normal(0.0, 200.0)),
+            tuple(rng.normal(0.0, 2.0, 3).tolist()),
+            tuple(c.tolist()),
+        )
+        theta = tuple(rng.normal(0.0, 0.02, 3).tolist())
+        dv = tuple(rng.normal(0.0, 0.2, 3).tolist())
+        for ins in (fast, slow):
+            ins.lat, ins.lon, ins.h, ins._v, ins._c = state
+        fast._advance(0.01, theta, dv)
+        slow._advance_reference(0.01, theta, dv)
+        assert (fast.lat, fast.lon, fast.h, fast._v, fast._c) == (
+            slow.lat, slow.lon, slow.h, slow._v, slow._c
+        )  # fmt: skip
+        assert fast._steps == slow._steps and fast.t == slow.t
