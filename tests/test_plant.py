@@ -281,3 +281,24 @@ def test_yaw_damping_does_not_fade_with_speed() -> None:
         n1 = hydro.wrench_f((u, 0.0, 0.0, 0.0, 0.0, r), 0.0, 0.0, 0.0)[5]
         m55 = REMUS100.rigid_mass_matrix_diag_f[5] + REMUS100.added_mass_f[5]
         assert -(n1 - n0) / r == pytest.approx(m55 / REMUS100.t_yaw_s, rel=1e-3), u
+
+
+@pytest.mark.parametrize("strips", [0, 10])
+def test_the_compiled_wrench_is_the_python_wrench_bit_for_bit(strips: int) -> None:
+    # twin.world.hydrodynamics_kernel replaces Hydrodynamics.wrench_f_reference (issue #31):
+    # the same six numbers, to the last bit, over random states, fins and propeller speeds
+    # (both cross-flow forms, the near-zero-rate branch and reverse thrust included).
+    import dataclasses
+
+    hydro = Hydrodynamics(dataclasses.replace(REMUS100, crossflow_strips=strips), 1025.0, 9.81)
+    rng = np.random.default_rng(11)
+    for k in range(2000):
+        nu = rng.normal(0.0, [1.5, 0.3, 0.3, 0.2, 0.2, 0.2])
+        if k % 5 == 0:
+            nu[3:] *= 1e-9  # |r| h ≪ |v|: the series branch of the closed form
+        args = (tuple(nu.tolist()), *rng.normal(0.0, 0.3, 2), float(rng.uniform(-10.0, 30.0)))
+        assert tuple(hydro.wrench_f(*args)) == tuple(hydro.wrench_f_reference(*args))
+    zero = (0.0,) * 6  # at rest: no lift/drag angle (u_rel = 0)
+    assert tuple(hydro.wrench_f(zero, 0.0, 0.0, 0.0)) == tuple(
+        hydro.wrench_f_reference(zero, 0.0, 0.0, 0.0)
+    )

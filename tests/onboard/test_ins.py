@@ -291,7 +291,7 @@ def test_the_compiled_step_is_the_python_step_bit_for_bit(free_air) -> None:
     rng = np.random.default_rng(7)
     fast = StrapdownIns(init_state((0.0, 0.0, 0.0)), InsConfig(free_air_gravity=free_air))
     slow = StrapdownIns(init_state((0.0, 0.0, 0.0)), InsConfig(free_air_gravity=free_air))
-    for _ in range(500):
+    for _ in range(5000):  # CPython's x ** 2 (libm pow) differs from x·x for ~0.1 % of x
         c = euler_to_dcm(*rng.uniform(-math.pi / 2, math.pi / 2, 3)).reshape(-1)
         state = (
             float(rng.uniform(-1.4, 1.4)),

@@ -53,16 +53,11 @@ __all__ = ["InsConfig", "NavState", "StrapdownIns", "rotvec_to_dcm"]
 
 Vec3 = tuple[float, float, float]
 Mat9 = tuple[float, float, float, float, float, float, float, float, float]
-# The Earth model's constants in mechanization.advance's order.
+# The Earth model's constants in mechanization.advance's order (and the exponent 2 it needs).
 _EARTH = (
-    earth.A_M,
-    earth.E2,
-    earth.OMEGA_IE,
-    earth.GAMMA_E,
-    earth.K_SOMIGLIANA,
-    earth.F,
-    earth.M_RATIO,
-)
+    earth.A_M, earth.E2, earth.OMEGA_IE, earth.GAMMA_E, earth.K_SOMIGLIANA, earth.F,
+    earth.M_RATIO, 2.0,
+)  # fmt: skip
 
 
 def _check_finite_range(owner: str, name: str, value: float, lo: float, hi: float) -> None:

@@ -21,13 +21,18 @@ from numba import njit
 
 
 @njit(cache=True, inline="always")
-def _gravity(lat, h, ge, k_som, e2, a_m, f, m_ratio):  # type: ignore[no-untyped-def]
-    """:func:`twin.core.earth.normal_gravity` with the constants as arguments."""
-    s2 = math.sin(lat) ** 2
+def _gravity(lat, h, ge, k_som, e2, a_m, f, m_ratio, two):  # type: ignore[no-untyped-def]
+    """:func:`twin.core.earth.normal_gravity` with the constants as arguments.
+
+    Its ``x ** 2`` is libm's ``pow(x, 2)`` in CPython; ``two`` comes in as an argument so that
+    LLVM cannot turn ``pow`` into x·x (which differs in the last bit for ~0.1 % of x).
+    """
+    s2 = math.pow(math.sin(lat), two)
     g0 = ge * (1.0 + k_som * s2) / math.sqrt(1.0 - e2 * s2)
     if h == 0.0:
         return g0
-    return g0 * (1.0 - 2.0 / a_m * (1.0 + f + m_ratio - 2.0 * f * s2) * h + 3.0 * (h / a_m) ** 2)
+    free_air = 2.0 / a_m * (1.0 + f + m_ratio - 2.0 * f * s2) * h
+    return g0 * (1.0 - free_air + 3.0 * math.pow(h / a_m, two))
 
 
 @njit(cache=True, inline="always")
@@ -70,9 +75,9 @@ def advance(dt, theta, dv_b, lat, lon, h, v, c, free_air, earth):  # type: ignor
     Args: dt (s); theta, dv_b (3-tuples): the step's rotation vector and Δv (body); lat, lon,
     h, v, c: the INS state (C_b^n row-major); free_air: the gravity model's height term
     (``InsConfig.free_air_gravity``); earth: (A_M, E2, OMEGA_IE, GAMMA_E, K_SOMIGLIANA, F,
-    M_RATIO).
+    M_RATIO, 2.0), the last the exponent of :func:`_gravity`'s squares.
     """
-    a_m, e2, omega, ge, k_som, f, m_ratio = earth
+    a_m, e2, omega, ge, k_som, f, m_ratio, two = earth
     v_e, v_n, v_u = v
     sl, cl = math.sin(lat), math.cos(lat)
     tl = sl / cl
@@ -90,7 +95,7 @@ def advance(dt, theta, dv_b, lat, lon, h, v, c, free_air, earth):  # type: ignor
     dvn2 = c[6] * bx + c[7] * by + c[8] * bz
     a_e, a_n, a_u = chi_e, chi_n + ie_n, chi_u + ie_u
     hg = h + 0.5 * v_u * dt
-    g = _gravity(lat, hg if free_air else 0.0, ge, k_som, e2, a_m, f, m_ratio)
+    g = _gravity(lat, hg if free_air else 0.0, ge, k_som, e2, a_m, f, m_ratio, two)
     ve1 = v_e + dvn0 + (-(a_n * v_u - a_u * v_n) - 0.5 * (chi_n * dvn2 - chi_u * dvn1)) * dt
     vn1 = v_n + dvn1 + (-(a_u * v_e - a_e * v_u) - 0.5 * (chi_u * dvn0 - chi_e * dvn2)) * dt
     vu1 = v_u + dvn2 + (-(a_e * v_n - a_n * v_e) - 0.5 * (chi_e * dvn1 - chi_n * dvn0) - g) * dt

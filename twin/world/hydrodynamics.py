@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from twin.world import hydrodynamics_kernel
 from twin.world.vehicle import VehicleParams, hoerner_cd
 
 
@@ -92,6 +93,16 @@ class Hydrodynamics:
         self._kq_slope = (params.kq_max - params.kq0) / params.ja_max
         self._rho_d4 = self.rho * d**4
         self._rho_d5 = self.rho * d**5
+        p = params
+        # hydrodynamics_kernel.wrench_f's constants, in its order.
+        self.kernel_constants = (
+            *self._ma, *self._d_lin, self._cl_alpha, self._cd0, p.oswald_e, self._ar, self.rho,
+            self._s_hull, self._half_length, self._k_cross, self._k_rudder, self._k_stern,
+            p.fin_x_m, p.thrust_deduction, p.prop_torque_on_hull, p.wake_fraction,
+            p.prop_diameter_m, self._rho_d4, self._rho_d5, p.kt0, p.kq0, self._kt_slope,
+            self._kq_slope, 2.0,  # the exponent of the fins' drag (hydrodynamics_kernel)
+        )  # fmt: skip
+        self._strips = int(p.crossflow_strips)
 
     # ---- components ----------------------------------------------------------------------
     def propeller(self, n_rps: float, u_r: float) -> tuple[float, float]:
@@ -113,13 +124,23 @@ class Hydrodynamics:
 
     def wrench_f(
         self, nu_r: Sequence[float], rudder_rad: float, stern_rad: float, n_rps: float
-    ) -> list[float]:
+    ) -> tuple[float, float, float, float, float, float]:
         """Hydrodynamic and control wrench [X, Y, Z, K, M, N] in f at the CO.
 
         Includes −C_A(ν_r)ν_r, −D(ν_r)ν_r, hull lift/drag, cross-flow drag, fins and propeller;
         excludes the added-mass inertia −M_A ν̇_r (solved implicitly by the plant) and
-        gravity/buoyancy (applied by MuJoCo and the plant).
+        gravity/buoyancy (applied by MuJoCo and the plant). Compiled
+        (:mod:`twin.world.hydrodynamics_kernel`): :meth:`wrench_f_reference` bit for bit.
         """
+        return hydrodynamics_kernel.wrench_f(
+            tuple(nu_r), float(rudder_rad), float(stern_rad), float(n_rps),
+            self.kernel_constants, self._strips,
+        )  # fmt: skip
+
+    def wrench_f_reference(
+        self, nu_r: Sequence[float], rudder_rad: float, stern_rad: float, n_rps: float
+    ) -> list[float]:
+        """:meth:`wrench_f` in Python: the reference the compiled wrench is tested against."""
         u, v, w, p, q, r = nu_r
         xu, yv, zw, kp, mq, nr = self._ma
         par = self.params
