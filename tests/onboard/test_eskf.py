@@ -691,3 +691,28 @@ def test_azimuth_only_sun_update_is_skipped_near_the_zenith() -> None:
     zenith = np.array([0.01, 0.0, 1.0]) / math.hypot(0.01, 1.0)
     res = nav.update_sun(sun_body=nav.ins.c_bn.T @ zenith, sun_enu=zenith, azimuth_only=True)
     assert not res.applied and res.reason == "sun near the zenith"
+
+
+@pytest.mark.parametrize("free_air", [False, True])
+def test_the_compiled_f_and_feedback_are_the_python_ones_bit_for_bit(free_air) -> None:
+    # mechanization.fill_f / gravity_partials / correct replace the Python F and feedback
+    # (issue #31): the same F and the same corrected state, to the last bit, on random states.
+    rng = np.random.default_rng(3)
+    cfg = dataclasses.replace(EskfConfig(), ins=InsConfig(free_air_gravity=free_air))
+    for _ in range(3000):  # CPython's x ** 2 (libm pow) differs from x·x for ~0.1 % of x
+        c = euler_to_dcm(*rng.uniform(-1.5, 1.5, 3))
+        init = NavState(
+            0.0, float(rng.uniform(-1.4, 1.4)), float(rng.uniform(-3.0, 3.0)),
+            float(rng.normal(0.0, 300.0)), rng.normal(0.0, 2.0, 3), c,
+        )  # fmt: skip
+        fast, slow = Eskf(cfg, init), Eskf(cfg, init)
+        f_b = tuple(rng.normal(0.0, 10.0, 3).tolist())
+        fast.ins._f = slow.ins._f = f_b
+        np.testing.assert_array_equal(fast._system_matrix(), slow._system_matrix_reference())
+        x = rng.normal(0.0, [1e-2] * 3 + [0.1] * 3 + [1e-6] * 2 + [1.0] + [1e-4] * 6)
+        fast._feedback(x)
+        slow._feedback_reference(x)
+        a, b = fast.ins, slow.ins
+        assert (a._c, a._v, a.lat, a.lon, a.h, a._bg, a._ba) == (
+            b._c, b._v, b.lat, b.lon, b.h, b._bg, b._ba
+        )  # fmt: skip

@@ -88,8 +88,9 @@ from scipy.stats import chi2
 from twin.core import earth
 from twin.core.frames import FloatArray, dcm_to_euler, yaw_to_heading_deg
 from twin.core.messages import Reading
+from twin.onboard import mechanization
 from twin.onboard.eskf_config import GM_SIGMA_PER_BIAS_INSTABILITY, EskfConfig, ImuGrade
-from twin.onboard.ins import NavState, StrapdownIns
+from twin.onboard.ins import EARTH_CONSTANTS, NavState, StrapdownIns
 
 __all__ = [
     "DIM",
@@ -523,7 +524,24 @@ class Eskf:
         return self._system_matrix().copy()
 
     def _system_matrix(self) -> FloatArray:
-        """F refilled in place (the filter's own preallocated array)."""
+        """F refilled in place (the filter's own preallocated array).
+
+        Compiled (:func:`twin.onboard.mechanization.fill_f`, :meth:`_system_matrix_reference`'s
+        values bit for bit) unless the INS has a gravity model of its own.
+        """
+        ins = self.ins
+        if not ins.standard_gravity:
+            return self._system_matrix_reference()
+        fa = ins.config.free_air_gravity
+        dgl, dgh = mechanization.gravity_partials(ins.lat, ins.h, fa, EARTH_CONSTANTS)
+        mechanization.fill_f(
+            self._f_flat, _F_VARYING, ins.lat, ins.h, ins._v, ins._c, ins._f, dgl, dgh,
+            EARTH_CONSTANTS,
+        )  # fmt: skip
+        return self._f
+
+    def _system_matrix_reference(self) -> FloatArray:
+        """:meth:`_system_matrix` in Python (the reference)."""
         ins = self.ins
         dgl, dgh = self.gravity_partials()
         self._f_flat[_F_VARYING] = _f_varying_part(ins.lat, ins.h, ins._v, ins._c, ins._f, dgl, dgh)
@@ -791,6 +809,10 @@ class Eskf:
 
     def _feedback(self, x: FloatArray) -> None:
         """Apply the estimated errors to the INS and reset the error state (ESKF reset)."""
+        self.ins.correct_vector(x)
+
+    def _feedback_reference(self, x: FloatArray) -> None:
+        """:meth:`_feedback` through the INS's Python correction (the reference)."""
         e = x.tolist()
         self.ins.correct_floats(
             (e[0], e[1], e[2]),

@@ -54,7 +54,7 @@ __all__ = ["InsConfig", "NavState", "StrapdownIns", "rotvec_to_dcm"]
 Vec3 = tuple[float, float, float]
 Mat9 = tuple[float, float, float, float, float, float, float, float, float]
 # The Earth model's constants in mechanization.advance's order (and the exponent 2 it needs).
-_EARTH = (
+EARTH_CONSTANTS = (
     earth.A_M, earth.E2, earth.OMEGA_IE, earth.GAMMA_E, earth.K_SOMIGLIANA, earth.F,
     earth.M_RATIO, 2.0,
 )  # fmt: skip
@@ -461,12 +461,12 @@ class StrapdownIns:
         # The compiled step (twin.onboard.mechanization): _advance_reference's arithmetic, bit
         # for bit, at a quarter of its cost. A subclass with its own gravity model steps in
         # Python (the compiled step knows only earth.normal_gravity).
-        if type(self).gravity is not StrapdownIns.gravity:
+        if not self.standard_gravity:
             self._advance_reference(dt, theta, dv_b)
             return
         self.lat, self.lon, self.h, self._v, c = mechanization.advance(
             dt, theta, dv_b, self.lat, self.lon, self.h, self._v, self._c,
-            self.config.free_air_gravity, _EARTH,
+            self.config.free_air_gravity, EARTH_CONSTANTS,
         )  # fmt: skip
         self.t += dt
         self._steps += 1
@@ -545,6 +545,22 @@ class StrapdownIns:
             zero if dgyro_bias is None else _floats3("dgyro_bias", dgyro_bias),
             zero if daccel_bias is None else _floats3("daccel_bias", daccel_bias),
         )
+
+    @property
+    def standard_gravity(self) -> bool:
+        """Whether :meth:`gravity` is this class's (the compiled paths know only that one)."""
+        return type(self).gravity is StrapdownIns.gravity
+
+    def correct_vector(self, e: FloatArray) -> None:
+        """:meth:`correct_floats` from the filter's 15 error estimates, compiled.
+
+        ``e`` = (φ, δv, δL, δλ, δh, δb_g, δb_a) as the filter orders them;
+        :func:`twin.onboard.mechanization.correct` does :meth:`correct_floats`'s arithmetic.
+        """
+        (self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba) = mechanization.correct(
+            self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba, e
+        )
+        self._cache.clear()
 
     def correct_floats(
         self, phi: Vec3, dv: Vec3, dlat: float, dlon: float, dh: float, dbg: Vec3, dba: Vec3

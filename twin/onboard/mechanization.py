@@ -106,3 +106,76 @@ def advance(dt, theta, dv_b, lat, lon, h, v, c, free_air, earth):  # type: ignor
     c_nav = _rotvec_exp(mn / rm_h * dt, -(ie_n + me / rn_h) * dt, -(ie_u + me * tl / rn_h) * dt)
     c1 = _mul33(c_nav, _mul33(c, _rotvec_exp(theta[0], theta[1], theta[2])))
     return lat1, lon1, h1, (ve1, vn1, vu1), c1
+
+
+@njit(cache=True)
+def gravity_partials(lat, h, free_air, earth):  # type: ignore[no-untyped-def]
+    """:meth:`twin.onboard.eskf.Eskf.gravity_partials` (central differences of γ), compiled."""
+    a_m, e2, _, ge, k_som, f, m_ratio, two = earth
+    dl, dh = 1e-5, 1.0
+
+    def g(la, hh):  # type: ignore[no-untyped-def]
+        return _gravity(la, hh if free_air else 0.0, ge, k_som, e2, a_m, f, m_ratio, two)
+
+    return (
+        (g(lat + dl, h) - g(lat - dl, h)) / (2 * dl),
+        (g(lat, h + dh) - g(lat, h - dh)) / (2 * dh),
+    )
+
+
+@njit(cache=True)
+def fill_f(out, index, lat, h, v, c, f_b, dg_dlat, dg_dh, earth):  # type: ignore[no-untyped-def]
+    """Write :func:`twin.onboard.eskf._f_varying_part`'s values into ``out[index]`` (flat F).
+
+    The same expressions in the same order (squares through libm's ``pow``, as there).
+    """
+    a_m, e2, om, _, _, _, _, two = earth
+    sl, cl = math.sin(lat), math.cos(lat)
+    tl, secl = sl / cl, 1.0 / cl
+    d = 1.0 - e2 * sl * sl
+    r_n = a_m / math.sqrt(d)
+    r_m = r_n * (1.0 - e2) / d
+    rm_h, rn_h = r_m + h, r_n + h
+    ve, vn, vu = v
+    we, wn, wu = -vn / rm_h, om * cl + ve / rn_h, om * sl + ve * tl / rn_h
+    ae, an, au = we, wn + om * cl, wu + om * sl
+    rm_h2, rn_h2 = math.pow(rm_h, two), math.pow(rn_h, two)
+    d0, d1, d2 = vn / rm_h2, -ve / rn_h2, -ve * tl / rn_h2
+    den_dl_u = ve * secl * secl / rn_h
+    u1, u2 = -2.0 * om * sl, 2.0 * om * cl + den_dl_u
+    c0, c1, c2, c3, c4, c5, c6, c7, c8 = c
+    fx, fy, fz = f_b
+    fe = c0 * fx + c1 * fy + c2 * fz
+    fn = c3 * fx + c4 * fy + c5 * fz
+    fu = c6 * fx + c7 * fy + c8 * fz
+    values = (
+        wu, -wn, -wu, we, wn, -we,
+        -1.0 / rm_h, 1.0 / rn_h, tl / rn_h,
+        -om * sl, om * cl + den_dl_u,
+        d0, d1, d2,
+        -c0, -c1, -c2, -c3, -c4, -c5, -c6, -c7, -c8,
+        -fu, fn, fu, -fe, -fn, fe,
+        (-vu + vn * tl) / rn_h, au, -an,
+        -au - ve * tl / rn_h, -vu / rm_h, ae,
+        an + ve / rn_h, -ae + vn / rm_h,
+        -vu * u1 + vn * u2, -ve * u2, ve * u1 - dg_dlat,
+        -vu * d1 + vn * d2, vu * d0 - ve * d2, -vn * d0 + ve * d1 - dg_dh,
+        c0, c1, c2, c3, c4, c5, c6, c7, c8,
+        1.0 / rm_h, -vn / rm_h2, secl / rn_h, ve * secl * tl / rn_h, -ve * secl / rn_h2,
+    )  # fmt: skip
+    for k in range(len(values)):
+        out[index[k]] = values[k]
+
+
+@njit(cache=True)
+def correct(c, v, lat, lon, h, bg, ba, e):  # type: ignore[no-untyped-def]
+    """:meth:`twin.onboard.ins.StrapdownIns.correct_floats` on the state, compiled.
+
+    ``e`` is the filter's 15 error estimates (φ, δv, δL, δλ, δh, δb_g, δb_a); returns the new
+    (C, v, lat, lon, h, b_g, b_a).
+    """
+    c1 = _mul33(_rotvec_exp(e[0], e[1], e[2]), c)
+    v1 = (v[0] - e[3], v[1] - e[4], v[2] - e[5])
+    bg1 = (bg[0] + e[9], bg[1] + e[10], bg[2] + e[11])
+    ba1 = (ba[0] + e[12], ba[1] + e[13], ba[2] + e[14])
+    return c1, v1, lat - e[6], lon - e[7], h - e[8], bg1, ba1
