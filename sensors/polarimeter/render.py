@@ -98,11 +98,6 @@ _EDGE_BAND_OUT_CELLS = 1.0
 _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
 _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
-# Inside those bands, cells farther than these from the edge and the sun are interpolated from a
-# grid of half the stride (exact points every 2 pixels) rather than rendered at every pixel: a
-# bilinear error a quarter of the coarse grid's where the light is still curved (issue #31).
-_EDGE_EXACT_IN_CELLS = 3.0
-_SUN_EXACT_CELLS = 4.0
 _KERNEL_3X3 = np.ones((3, 3), dtype=np.uint8)
 
 
@@ -197,8 +192,6 @@ class _FastPlan:
         self._cell_pixels = table.astype(np.int32 if h * w < 2**31 else np.intp)
         self._rays_planar = cam.rays_planar.reshape(3, -1)
         self._shape = (h, w)
-        fine_ok = s >= 4 and s % 2 == 0
-        self.fine = _FineLevel(cam, s, self.cell_valid.shape, psf) if fine_ok else None
 
     def rough_cells(self, points: NDArray[np.bool_]) -> NDArray[np.intp]:
         """Flat indices of the rough cells, into the (H/s + 1, W/s + 1) cells.
@@ -243,52 +236,6 @@ class _FastPlan:
         top = g[ya + xa] * (1 - tx) + g[ya + xb] * tx
         bottom = g[yb + xa] * (1 - tx) + g[yb + xb] * tx
         return top * (1 - ty) + bottom * ty
-
-
-class _FineLevel:
-    """The fast path's half-stride grid: exact points every 2 pixels, for the bands' outer cells.
-
-    Point (i, j) sits at frame (2j + ½, 2i + ½), where ``cv2.resize`` by 2 (bilinear) places
-    its source samples, so the frame's pixels are the resize of this grid. A cell of the coarse
-    grid (:class:`_FastPlan`) takes its pixels' values from the (s/2 + 2)² points around it
-    (:attr:`cell_points`); a cell is usable when all of those lie in the image circle.
-    """
-
-    def __init__(
-        self, cam: camera_mod.Camera, s: int, cells_shape: tuple[int, int], psf: FloatArray
-    ) -> None:
-        h, w = cam.shape
-        h2, w2 = h // 2, w // 2
-        jj, ii = np.meshgrid(np.arange(w2), np.arange(h2))
-        u, v = 2.0 * jj + 0.5, 2.0 * ii + 0.5
-        rays, inside = cam.pixel_to_ray(u, v)  # dome: the outside rays are the lens rays
-        rays = rays.reshape(-1, 3)
-        self.shape = (h2, w2)
-        self.rays = np.ascontiguousarray(rays, dtype=np.float32)
-        self.basis = camera_mod.sensor_basis(rays, np.float32)
-        ui = np.clip(np.rint(u).astype(np.intp), 0, w - 1).reshape(-1)
-        vi = np.clip(np.rint(v).astype(np.intp), 0, h - 1).reshape(-1)
-        self.psf = np.ascontiguousarray(psf[vi, ui])
-        # The points each cell's pixels read: rows floor((y + ½)/2 − ½) and the next, clamped
-        # (the resize replicates the border), for y over the cell's rows s·i − s/2 … s·i + s/2 − 1.
-        hc1, wc1 = cells_shape
-        half = s // 2
-
-        def span(n_cells: int, n_fine: int) -> NDArray[np.intp]:
-            first = np.floor((np.arange(n_cells) * s - half + 0.5) / 2.0 - 0.5).astype(np.intp)
-            k = half + 2  # points per cell and axis (s/2 + 1 floors, and the next one)
-            return np.clip(first[:, None] + np.arange(k)[None, :], 0, n_fine - 1)
-
-        rows, cols = span(hc1, h2), span(wc1, w2)
-        table = rows[:, None, :, None] * w2 + cols[None, :, None, :]
-        self.cell_points = table.reshape(hc1 * wc1, -1)
-        self.cell_ok = inside.reshape(-1)[self.cell_points].all(axis=1)
-
-    def points(self, cells: NDArray[np.intp]) -> NDArray[np.intp]:
-        """The sorted, distinct points the given cells read."""
-        pts = np.zeros(self.shape[0] * self.shape[1], dtype=bool)
-        pts[self.cell_points[cells].reshape(-1)] = True
-        return np.flatnonzero(pts)
 
 
 def _scatter_rows(flat: FloatArray, idx: NDArray[np.intp], rows: FloatArray) -> None:
@@ -1013,17 +960,13 @@ class Polarimeter(Sensor):
         edge = math.acos(fc.state.window_cos) if fc.state is not None else 0.5 * math.pi
         # Signed angle from the edge in cells (> 0 outside the window / below the horizon).
         ang = (np.arccos(up) - edge) / cell
-        near = ang < _EDGE_BAND_OUT_CELLS
-        rough = (ang > -_EDGE_BAND_IN_CELLS) & near
-        exact = (ang > -_EDGE_EXACT_IN_CELLS) & near
+        rough = (ang > -_EDGE_BAND_IN_CELLS) & (ang < _EDGE_BAND_OUT_CELLS)
         if fc.state is not None:
-            exact |= self._sharp_scattering(fc.state, up, cell)
+            rough |= self._sharp_scattering(fc.state, up, cell)
         if fc.sun_look is not None:
-            sun_ang = np.arccos(np.clip(world @ fc.sun_look, -1.0, 1.0)) - _SUN_BAND_RAD
-            rough |= sun_ang < _SUN_BAND_CELLS * cell
-            exact |= sun_ang < _SUN_EXACT_CELLS * cell
-        rough |= exact
-        cells, mid = self._split_rough_cells(plan, rough, exact, occluded, occ_any)
+            cos_sun = np.clip(world @ fc.sun_look, -1.0, 1.0)
+            rough |= np.arccos(cos_sun) < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
+        cells = plan.rough_cells(rough)
         # --- the coarse frame, upsampled over the image circle's bounding box -------------------
         coarse = np.zeros((hc * wc, 3), dtype=np.float32)
         coarse[plan.points] = tot_c
@@ -1033,38 +976,17 @@ class Polarimeter(Sensor):
         cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
         cv2.copyTo(plan.zeros, plan.invalid, roi)
         flat = st.reshape(-1, 3)
-        # --- the exact chain at the valid pixels of the rough cells and at the points of the ----
-        # --- half-stride grid the bands' outer cells read (one call: its per-call costs once) ---
+        # --- the exact chain at the valid pixels of the rough cells -----------------------------
         idx = plan.pixels(cells)
-        rays, basis, psf = plan.gather_rays(idx), cam.sensor_basis_at(idx), plan.psf_full[idx]
-        occ = occluded.reshape(-1)[idx] if occ_any else None
-        fine, fidx = plan.fine, None
-        if mid.size:
-            assert fine is not None
-            fidx = fine.points(mid)
-            rays = np.concatenate([rays, np.take(fine.rays, fidx, axis=0)])
-            basis = np.concatenate([basis, np.take(fine.basis, fidx, axis=1)], axis=1)
-            psf = np.concatenate([psf, fine.psf[fidx]])
-            if occ is not None:  # the grid's cells have no occluded pixel (_split_rough_cells)
-                occ = np.concatenate([occ, np.zeros(fidx.size, dtype=bool)])
-        st_all, sees_all, _ = self._render_points(rays, basis, psf, c_cn, fc, occ)
-        n = idx.size
-        st_r, sees_r = st_all[:n], sees_all[:n]
+        st_r, sees_r, _ = self._render_points(
+            plan.gather_rays(idx),
+            cam.sensor_basis_at(idx),
+            plan.psf_full[idx],
+            c_cn,
+            fc,
+            occluded.reshape(-1)[idx] if occ_any else None,
+        )
         _scatter_rows(flat, idx, st_r)
-        if fidx is not None:
-            assert fine is not None
-            # The grid's points around the outer cells, resized by 2 over their bounding box
-            # (the same values as a resize of the whole grid: no read crosses the box).
-            w2 = fine.shape[1]
-            r0, r1 = int(fidx[0]) // w2, int(fidx[-1]) // w2 + 1
-            col = fidx % w2
-            c0, c1 = int(col.min()), int(col.max()) + 1
-            grid = np.zeros((r1 - r0, c1 - c0, 3), dtype=np.float32)
-            grid.reshape(-1, 3)[(fidx // w2 - r0) * (c1 - c0) + col - c0] = st_all[n:]
-            box = cv2.resize(grid, (2 * (c1 - c0), 2 * (r1 - r0)), interpolation=cv2.INTER_LINEAR)
-            pix = plan.pixels(mid)
-            local = (pix // w - 2 * r0) * (2 * (c1 - c0)) + pix % w - 2 * c0
-            _scatter_rows(flat, pix, box.reshape(-1, 3)[local])
         # --- Snell's window (the sky above the horizon, in air) ---------------------------------
         win_c = np.zeros(hc * wc, dtype=np.uint8)
         win_c[plan.points] = sees_c
@@ -1085,37 +1007,6 @@ class Polarimeter(Sensor):
                 np.maximum(flat[lose, 0], 0.0, out=flat[lose, 0])
             window &= ~occluded
         return st, window
-
-    @staticmethod
-    def _split_rough_cells(
-        plan: _FastPlan,
-        rough: NDArray[np.bool_],
-        exact: NDArray[np.bool_],
-        occluded: NDArray[np.bool_],
-        occ_any: bool,
-    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-        """(cells rendered at every pixel, cells from the half-stride grid), flat indices.
-
-        A rough cell goes to the half-stride grid when none of its corners is ``exact``, it is
-        not on the frame's border, all the grid points it reads are in the image circle and
-        none of its pixels is occluded (the exact chain handles those); every other rough cell
-        is exact.
-        """
-        cells = plan.rough_cells(rough)
-        if plan.fine is None:
-            return cells, cells[:0]
-        exact_cells = np.zeros(plan.cell_valid.size, dtype=bool)
-        exact_cells[plan.rough_cells(exact)] = True
-        mid = cells[~exact_cells[cells] & plan.fine.cell_ok[cells]]
-        if occ_any and mid.size:
-            px = plan._cell_pixels[mid]
-            hit = (occluded.reshape(-1)[np.maximum(px, 0)] & (px >= 0)).any(axis=1)
-            mid = mid[~hit]
-        if mid.size == 0:
-            return cells, mid
-        exact_cells[cells] = True
-        exact_cells[mid] = False
-        return np.flatnonzero(exact_cells), mid
 
     def _sharp_scattering(
         self,
