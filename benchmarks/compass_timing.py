@@ -30,6 +30,7 @@ import sensors  # noqa: E402
 from sensors.polarimeter.render import OpticsConfig  # noqa: E402
 from twin.onboard.compass import available  # noqa: E402
 from twin.onboard.compass.base import CompassContext  # noqa: E402
+from twin.record import provenance as pv  # noqa: E402
 
 RESULTS = pathlib.Path(__file__).parent / "results"
 
@@ -74,7 +75,10 @@ def main() -> None:
         "",
         f"Raw {raw.shape[1]}×{raw.shape[0]} uint16 (ideal PHX050S-P geometry, 5 m, Jerlov II), one "
         f"thread (OpenCV, BLAS), best / median of {args.repeats} after a first (cache-building) "
-        f"call; {platform.processor() or platform.machine()}, shared dev VM (load varies).",
+        f"call; {platform.processor() or platform.machine()}, shared dev VM (load varies), "
+        f"{dt.date.today().isoformat()}, load average "
+        f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}.",
+        f"- {'; '.join(pv.describe(pv.provenance()))}",
         "",
         "| method | first call ms | best ms | median ms | ok | reason |",
         "|---|---|---|---|---|---|",
