@@ -468,6 +468,10 @@ class StrapdownIns:
             dt, theta, dv_b, self.lat, self.lon, self.h, self._v, self._c,
             self.config.free_air_gravity, EARTH_CONSTANTS,
         )  # fmt: skip
+        self._end_step(dt, c)
+
+    def _end_step(self, dt: float, c: Mat9) -> None:
+        """A step's end: the clock, the periodic re-orthonormalization, the new attitude."""
         self.t += dt
         self._steps += 1
         if self._steps % self.config.orthonormalize_every == 0:
@@ -509,13 +513,7 @@ class StrapdownIns:
         self._v = (ve1, vn1, vu1)
         # exp(−[ζ×]): the n-frame turns by ζ over the step; C⁺ = exp(−[ζ×]) C exp([θ×]).
         c_nav = _rotvec_exp(mn / rm_h * dt, -(ie_n + me / rn_h) * dt, -(ie_u + me * tl / rn_h) * dt)
-        c = _mul33(c_nav, _mul33(c, _rotvec_exp(*theta)))
-        self.t += dt
-        self._steps += 1
-        if self._steps % self.config.orthonormalize_every == 0:
-            c = _orthonormalize(c)
-        self._c = c
-        self._cache.clear()
+        self._end_step(dt, _mul33(c_nav, _mul33(c, _rotvec_exp(*theta))))
 
     # --- corrections and output ----------------------------------------------------------------
     def correct(

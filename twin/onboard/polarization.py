@@ -311,11 +311,17 @@ def _band_rows(width: int) -> int:
 
 
 def _superpixel_image(
-    raw: np.ndarray, w: NDArray[np.float64], black_level_dn: float, saturation_dn: float | None
-) -> PolarizationImage:
+    raw: np.ndarray,
+    w: NDArray[np.float64],
+    black_level_dn: float,
+    saturation_dn: float | None,
+    angles: bool = True,
+) -> PolarizationImage | StokesPlanes:
     # Band by band, so the four planes and the temporaries stay in cache (25 % faster, measured).
+    # Without ``angles``: S0–S2 and the mask only (StokesPlanes).
     h, wd = raw.shape
-    s0, s1, s2, aop, dop = (np.empty((h // 2, wd // 2), np.float32) for _ in range(5))
+    s0, s1, s2 = (np.empty((h // 2, wd // 2), np.float32) for _ in range(3))
+    aop, dop = (np.empty((h // 2, wd // 2) if angles else 0, np.float32) for _ in range(2))
     sat = np.zeros((h // 2, wd // 2), bool)
     step = _band_rows(wd)
     for r0 in range(0, h, step):
@@ -324,11 +330,14 @@ def _superpixel_image(
         planes = _sub_lattices(raw[r0:r1])
         b0, b1, b2 = _superpixel(planes, w, black_level_dn)
         s0[out], s1[out], s2[out] = b0, b1, b2
-        _aop_dop(b0, b1, b2, aop[out], dop[out])
+        if angles:
+            _aop_dop(b0, b1, b2, aop[out], dop[out])
         if saturation_dn is not None:
             p = planes
             brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
             sat[out] = brightest >= saturation_dn
+    if not angles:
+        return StokesPlanes(s0, s1, s2, sat)
     return PolarizationImage(s0=s0, s1=s1, s2=s2, aop=aop, dop=dop, saturated=sat)
 
 
@@ -356,22 +365,11 @@ def stokes_planes_from_mosaic(
     _check_raw(raw)
     if not math.isfinite(black_level_dn):
         raise ValueError(f"black_level_dn = {black_level_dn!r}: must be finite")
-    w = analysis_pinv(layout_deg)
-    raw = _as_cv(raw)
-    h, wd = raw.shape
-    s0, s1, s2 = (np.empty((h // 2, wd // 2), np.float32) for _ in range(3))
-    sat = np.zeros((h // 2, wd // 2), bool)
-    step = _band_rows(wd)
-    for r0 in range(0, h, step):
-        r1 = min(r0 + step, h)
-        out = slice(r0 // 2, r1 // 2)
-        planes = _sub_lattices(raw[r0:r1])
-        s0[out], s1[out], s2[out] = _superpixel(planes, w, black_level_dn)
-        if saturation_dn is not None:
-            p = planes
-            brightest = cv2.max(cv2.max(p[0][0], p[0][1]), cv2.max(p[1][0], p[1][1]))
-            sat[out] = brightest >= saturation_dn
-    return StokesPlanes(s0, s1, s2, sat)
+    planes = _superpixel_image(
+        _as_cv(raw), analysis_pinv(layout_deg), black_level_dn, saturation_dn, angles=False
+    )
+    assert isinstance(planes, StokesPlanes)
+    return planes
 
 
 def _interpolated_image(
@@ -431,5 +429,7 @@ def stokes_from_mosaic(
     w = analysis_pinv(layout_deg)
     raw = _as_cv(raw)
     if method == "superpixel":
-        return _superpixel_image(raw, w, black_level_dn, saturation_dn)
+        img = _superpixel_image(raw, w, black_level_dn, saturation_dn)
+        assert isinstance(img, PolarizationImage)
+        return img
     return _interpolated_image(raw, w, black_level_dn, saturation_dn)

@@ -48,6 +48,25 @@ def _refract(x, y, n):  # type: ignore[no-untyped-def]
     return x * scale, y * scale, cos_i, sin_r, sin_i
 
 
+@njit(cache=True, inline="always")
+def _accumulate(mat, w, v0, v1, v2):  # type: ignore[no-untyped-def]
+    """The upper triangle of mat += w v vᵀ."""
+    mat[0, 0] += w * v0 * v0
+    mat[0, 1] += w * v0 * v1
+    mat[0, 2] += w * v0 * v2
+    mat[1, 1] += w * v1 * v1
+    mat[1, 2] += w * v1 * v2
+    mat[2, 2] += w * v2 * v2
+
+
+@njit(cache=True, inline="always")
+def _symmetrize(mat):  # type: ignore[no-untyped-def]
+    """The lower triangle from the upper."""
+    mat[1, 0] = mat[0, 1]
+    mat[2, 0] = mat[0, 2]
+    mat[2, 1] = mat[1, 2]
+
+
 @njit(cache=True)
 def pol_moments(idx, aop, dop, rays, r_s, t_s, lens_rays, c, n_w, fresnel, flat, dop_weight):  # type: ignore[no-untyped-def]
     """Σ w e eᵀ (3×3) and Σ w of POL's air-side E-vectors (``PolCompass.solve_frame``, step 3).
@@ -122,16 +141,9 @@ def pol_moments(idx, aop, dop, rays, r_s, t_s, lens_rays, c, n_w, fresnel, flat,
         v1 = cp * it1 + sp * ip1
         v2 = cp * it2
         w = d if dop_weight else 1.0
-        mat[0, 0] += w * v0 * v0
-        mat[0, 1] += w * v0 * v1
-        mat[0, 2] += w * v0 * v2
-        mat[1, 1] += w * v1 * v1
-        mat[1, 2] += w * v1 * v2
-        mat[2, 2] += w * v2 * v2
+        _accumulate(mat, w, v0, v1, v2)
         wsum += w
-    mat[1, 0] = mat[0, 1]
-    mat[2, 0] = mat[0, 2]
-    mat[2, 1] = mat[1, 2]
+    _symmetrize(mat)
     return mat, wsum
 
 
@@ -184,15 +196,8 @@ def lig_moments(idx, rays, du, dv, gxs, gys, filt, c, n_sphere, grad_weight):  #
         v1 = n1 / nn
         v2 = n2 / nn
         w = nn / max(float(filt[i]), 1e-6) if grad_weight else 1.0
-        mat[0, 0] += w * v0 * v0
-        mat[0, 1] += w * v0 * v1
-        mat[0, 2] += w * v0 * v2
-        mat[1, 1] += w * v1 * v1
-        mat[1, 2] += w * v1 * v2
-        mat[2, 2] += w * v2 * v2
+        _accumulate(mat, w, v0, v1, v2)
         wsum += w
         count += 1
-    mat[1, 0] = mat[0, 1]
-    mat[2, 0] = mat[0, 2]
-    mat[2, 1] = mat[1, 2]
+    _symmetrize(mat)
     return mat, wsum, count
