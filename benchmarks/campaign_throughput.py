@@ -31,6 +31,7 @@ from pathlib import Path
 from twin.campaign.results import load_campaign_results
 from twin.campaign.runner import run_campaign
 from twin.campaign.spec import parse_campaign
+from twin.record import provenance as pv
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -122,10 +123,11 @@ def main() -> None:
         "machine": f"{platform.machine()}, Python {platform.python_version()}, 2 cores",
         "runs": args.runs,
         "duration_s": args.duration,
+        "provenance": pv.provenance(),
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "campaign_throughput.json").write_text(
-        json.dumps({**meta, **rows, "startup": start}, indent=2)
+        json.dumps({**meta, **rows, "startup": start}, indent=2, default=str)
     )
     lines = [
         "# Campaign throughput (benchmarks/campaign_throughput.py)",
@@ -133,6 +135,7 @@ def main() -> None:
         f"{meta['date']}, {meta['machine']}: {args.runs} runs of the default trial cut to "
         f"{args.duration:g} s, no recording. Overhead: campaign wall time beyond the runs' own "
         "time per worker (process start, imports, scheduling, writing rows), as a fraction.",
+        f"- {'; '.join(pv.describe(meta['provenance']))}",
         "",
         "| backend | wall s | runs/min | speed-up vs 1 worker (same backend) | runs/min after "
         "start-up | speed-up after start-up | first run done at s | mean run s | overhead |",

@@ -116,7 +116,7 @@ def compensate_at(
         return PolarizationImage(s0, s1, s2, *aop_dop(s0, s1, s2), sat)
     inv = _grid_inverse(calibration, img.shape, kind, origin, block)
     return apply_inverse(
-        PolarizationImage(s0, s1, s2, s0, s0, sat),  # apply_inverse derives the angles
+        StokesPlanes(s0, s1, s2, sat),
         LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse))),
     )
 
@@ -137,8 +137,11 @@ def _grid_inverse(
     return inv
 
 
-def apply_inverse(img: PolarizationImage, inv: LensInverse) -> PolarizationImage:
-    """Undo the lens transfer (module docstring's equations) with precomputed factors."""
+def apply_inverse(img: PolarizationImage | StokesPlanes, inv: LensInverse) -> PolarizationImage:
+    """Undo the lens transfer (module docstring's equations) with precomputed factors.
+
+    Reads S0–S2 and the saturation mask only; AoP and DoP are derived from the result.
+    """
     cos2, sin2, a, d, k = inv.cos2, inv.sin2, inv.a, inv.d, inv.k
     s0m, s1m, s2m = (np.asarray(x, np.float64) for x in (img.s0, img.s1, img.s2))
     r1 = cos2 * s1m + sin2 * s2m  # radial frame

@@ -580,7 +580,11 @@ def _jacobian_normals(
     n_w: float,
     sphere: str,
 ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-    """The twin's refinement of eqs. 8–12 (module docstring, step 4): (normals, |n|, kept)."""
+    """The twin's refinement of eqs. 8–12 (module docstring, step 4): (normals, |n|, kept).
+
+    With numpy: the reference :func:`twin.onboard.compass.kernels.lig_moments` (what the method
+    runs) is tested against.
+    """
     # Eqs. 8–12 by the chain rule: image covector → sphere gradient on the air side → normal.
     du_h = geo.du.reshape(-1, 3)[idx] @ c_c_h.T
     dv_h = geo.dv.reshape(-1, 3)[idx] @ c_c_h.T
