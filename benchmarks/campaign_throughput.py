@@ -111,6 +111,7 @@ def main() -> None:
             "set": {"duration_s": args.duration},
         }
     )
+    startup(2.0)  # numba's on-disk cache built (a fresh checkout compiles once), untimed
     rows = {
         "local, 1 worker": measure(spec, workers=1),
         "local, 2 workers": measure(spec, workers=2),
