@@ -91,6 +91,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 # The spec and presets live in sensor_spec.py; re-exported here, where users import them.
+from sensors.polarimeter import mosaic_kernel as mk
 from sensors.polarimeter.sensor_spec import (
     IMX250MZR_LAYOUT_DEG,
     PRESETS,
@@ -172,6 +173,10 @@ class DoFPSensor:
     Raises:
         ValueError: If the spec is impossible or the shape is not even and positive.
     """
+
+    # The compiled per-pixel passes (mosaic_kernel); False: the OpenCV chain they reproduce bit
+    # for bit, kept as their reference for the tests.
+    _kernels: bool = True
 
     def __init__(
         self,
@@ -304,7 +309,32 @@ class DoFPSensor:
     def _mean_band(
         self, stokes: NDArray[np.float32], r0: int, r1: int, t_s: float, dark_e: float
     ) -> NDArray[np.float32]:
-        """Expected collected electrons λ of rows r0:r1 (two fused OpenCV passes)."""
+        """Expected collected electrons λ of rows r0:r1 (one compiled pass, mosaic_kernel)."""
+        if not self._kernels:
+            return self._mean_band_reference(stokes, r0, r1, t_s, dark_e)
+        w = self._shape[1]
+        st = stokes[r0:r1].reshape(-1)
+        an = self._fp.analysis[r0:r1].reshape(-1)
+        t32, d32 = np.float32(t_s), np.float32(dark_e)
+        lam = np.empty((r1 - r0, w), np.float32)
+        flat = lam.reshape(-1)
+        mk.expected_charge(st, an, t32, d32, flat)
+        hot = self._fp.hot
+        if hot.size:
+            a, b = np.searchsorted(hot, (r0 * w, r1 * w))
+            if b > a:
+                extra = np.float32(max(self._hot_extra_e_per_s() * t_s, 0.0))
+                mk.add_hot(st, an, t32, d32, hot[a:b] - r0 * w, extra, flat)
+        return lam
+
+    def _hot_extra_e_per_s(self) -> float:
+        s = self._spec
+        return s.hot_pixel_dark_at_temp_e_per_s - s.dark_current_at_temp_e_per_s
+
+    def _mean_band_reference(
+        self, stokes: NDArray[np.float32], r0: int, r1: int, t_s: float, dark_e: float
+    ) -> NDArray[np.float32]:
+        """:meth:`_mean_band` as two fused OpenCV passes (the compiled pass's reference)."""
         prod = cv2.multiply(stokes[r0:r1], self._fp.analysis[r0:r1])
         m = np.array([[t_s, t_s, t_s, dark_e]], np.float32)
         lam = cv2.transform(prod, m).reshape(r1 - r0, self._shape[1])
@@ -313,10 +343,7 @@ class DoFPSensor:
             w = self._shape[1]
             a, b = np.searchsorted(hot, (r0 * w, r1 * w))
             if b > a:
-                extra = (
-                    self._spec.hot_pixel_dark_at_temp_e_per_s
-                    - self._spec.dark_current_at_temp_e_per_s
-                ) * t_s
+                extra = self._hot_extra_e_per_s() * t_s
                 lam.ravel()[hot[a:b] - r0 * w] += np.float32(max(extra, 0.0))
         return np.maximum(lam, np.float32(0.0), out=lam)
 
@@ -398,7 +425,9 @@ class DoFPSensor:
                     if mask.any():
                         exact = np.flatnonzero(mask)
                         counts = rng.poisson(lam.ravel()[exact]).astype(np.float32)
-                if s.shot_noise:
+                if s.shot_noise and self._kernels:
+                    mk.shot_and_read(lam.reshape(-1), z.reshape(-1), read_var)
+                elif s.shot_noise:
                     np.add(lam, read_var, out=sd)
                     np.sqrt(sd, out=sd)
                     cv2.accumulateProduct(sd, z, lam)  # λ + √(λ + σ²)·z, in place
@@ -411,7 +440,18 @@ class DoFPSensor:
                     cv2.randn(rows, 0.0, float(s.row_noise_e))
                     lam += rows
             band_out = out[r0:r1]
-            if self._fp.dsnu_e is None:
+            if self._kernels:
+                dsnu = self._fp.dsnu_e
+                mk.to_dn(
+                    lam.reshape(-1),
+                    lam.reshape(-1) if dsnu is None else dsnu[r0:r1].reshape(-1),
+                    dsnu is not None,
+                    np.float32(inv_k),
+                    np.float32(s.black_level_dn),
+                    np.uint16(sat),
+                    band_out.reshape(-1),
+                )
+            elif self._fp.dsnu_e is None:
                 cv2.addWeighted(lam, inv_k, lam, 0.0, s.black_level_dn, band_out, cv2.CV_16U)
             else:
                 dsnu = self._fp.dsnu_e[r0:r1]

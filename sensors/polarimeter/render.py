@@ -92,12 +92,21 @@ _DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm be
 # Inside the edge: 5 cells. 3 cells give the same worst pixel in benchmarks/fast_path_error.py
 # but break the thin limit's fast-path bounds (S0 2.4e-3, AoP 0.052°: test_light_limits.py).
 _EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the horizon in air)
-# … and outside it: one cell keeps a cell that straddles the edge rough; 2 gave the same errors
-# on every scene of benchmarks/fast_path_error.py and the thin limit, at 11 % more exact pixels.
-_EDGE_BAND_OUT_CELLS = 1.0
+# … and outside it: none. A cell that straddles the edge has a corner inside, within a cell of
+# it, so the inner band keeps it rough; a cell with every corner outside lies wholly outside (the
+# window is convex, and its edge bows less than 0.02 px across a cell), where the light (the
+# table's outside rows, single scattering) is as smooth as anywhere. One cell (before
+# 2026-12-06) cost 14 % more exact pixels (22 608 against 19 824, the 612×512 benchmark frame)
+# for the same errors on every scene of benchmarks/fast_path_error.py but two (AoP where
+# DoP > 0.2, level 10 m: 0.27° → 0.29°; |Δ(S1, S2)|/S0, low sun: 0.021 → 0.023) and the thin
+# limit.
+_EDGE_BAND_OUT_CELLS = 0.0
 _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
 _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
+# The sky is evaluated at the rays inside Snell's window only when they are fewer than this
+# share of the rays (below it the gather and scatter cost less than the evaluations saved).
+_SKY_SUBSET_BELOW = 0.5
 _KERNEL_3X3 = np.ones((3, 3), dtype=np.uint8)
 
 
@@ -208,6 +217,20 @@ class _FastPlan:
         cells &= self.cell_valid
         cells |= self.border
         return np.flatnonzero(cells)
+
+    def smooth_corners(self, cells: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Positions in :attr:`points` of the corners of the valid cells not among ``cells``.
+
+        The points a frame's interpolation reads: every pixel of a rough cell is rendered
+        exactly, so a point whose cells are all rough is never read.
+        """
+        hc1, wc1 = self.cell_valid.shape
+        smooth = self.cell_valid.copy().reshape(-1)
+        smooth[cells] = False
+        smooth = smooth.reshape(hc1, wc1)
+        # Point (a, b) is a corner of cells (a, b), (a + 1, b), (a, b + 1), (a + 1, b + 1).
+        corner = smooth[:-1, :-1] | smooth[1:, :-1] | smooth[:-1, 1:] | smooth[1:, 1:]
+        return np.flatnonzero(corner.reshape(-1)[self.points])
 
     def pixels(self, cells: NDArray[np.intp]) -> NDArray[np.intp]:
         """Flat indices of the valid pixels of the given cells."""
@@ -884,10 +907,7 @@ class Polarimeter(Sensor):
         if fc.in_water:
             assert self._column is not None and fc.state is not None
             trans = surface_mod.surface_transmission(rays, self.n_water, rotation=c_cn)
-            sky = sky_radiance(
-                trans.sky_directions(), fc.sun, o.sky, rotation=c_cn, psf_sigma_rad=psf
-            )
-            window_st = trans.apply(sky.stokes)
+            window_st = trans.apply(self._window_sky(trans, fc, c_cn, psf))
             if occluded is not None:
                 window_st[occluded] = 0.0
             sees = trans.sees_sky
@@ -913,6 +933,36 @@ class Polarimeter(Sensor):
             self._finish(scat)
         return out, sees, scat
 
+    def _window_sky(
+        self,
+        trans: surface_mod.SurfaceTransmission,
+        fc: _Frame,
+        c_cn: NDArray[np.float64],
+        psf: FloatArray,
+    ) -> FloatArray:
+        """(N, 3) the sky's Stokes along each ray's sky direction, zero where it sees no sky.
+
+        The sky model is evaluated at the rays inside Snell's window only: outside it the
+        transmission factors are zero (:meth:`SurfaceTransmission.apply`), and most of the
+        coarse grid's points lie there (three in four at 10 m under a level camera). Each
+        sample's value does not depend on which others are evaluated with it
+        (:func:`sky.sky_radiance`).
+        """
+        sees = trans.sees_sky
+        dirs = trans.sky_directions()
+        sky = self.optics.sky
+        sel = np.flatnonzero(sees)
+        if sel.size > _SKY_SUBSET_BELOW * sees.size:  # the gather and scatter would cost more
+            return sky_radiance(dirs, fc.sun, sky, rotation=c_cn, psf_sigma_rad=psf).stokes
+        # Planar (3, N) storage in and out: sky_radiance's fast layout, contiguous gathers.
+        out = np.zeros((3, sees.size), dtype=dirs.dtype)
+        if sel.size:
+            sub = np.take(dirs.T, sel, axis=1).T
+            sig = np.broadcast_to(psf, sees.shape)[sel]
+            res = sky_radiance(sub, fc.sun, sky, rotation=c_cn, psf_sigma_rad=sig)
+            out[:, sel] = res.stokes.T
+        return out.T
+
     def _render_fast(
         self,
         plan: _FastPlan,
@@ -923,21 +973,22 @@ class Polarimeter(Sensor):
     ) -> tuple[FloatArray, NDArray[np.bool_]]:
         """The frame from a coarse grid, bilinearly upsampled, and exact pixels where needed.
 
-        1. The exact chain (:meth:`_render_points`) at the coarse grid's points (one at the
-           centre of every stride × stride block of pixels): the sensor-plane Stokes of all the
-           light and of the scattered light, in photons/s. The lens's polarization mapping is
-           applied at the points, so the meridian frame's singularity at the zenith is never
-           interpolated, only smooth sensor-plane fields.
-        2. A *cell* (the square between four points, whose pixels the bilinear interpolation
-           takes from those four) is *rough* when a corner point lies
-           ``_EDGE_BAND_IN_CELLS`` cells inside to ``_EDGE_BAND_OUT_CELLS`` outside Snell's window
-           edge (the horizon, in air: Fresnel transmission and the compressed sky are not smooth
-           there); or within ``_SUN_BAND_CELLS`` cells plus ``_SUN_BAND_RAD`` of the (refracted)
-           sun (the disc, the sky's aureole, the forward-peaked phase function); or near a feature
+        1. A *cell* (the square between four coarse-grid points, one point at the centre of
+           every stride × stride block of pixels, whose pixels the bilinear interpolation takes
+           from those four) is *rough* when a corner point lies within ``_EDGE_BAND_IN_CELLS``
+           cells inside Snell's window edge (``_EDGE_BAND_OUT_CELLS`` outside; above the
+           horizon, in air: Fresnel transmission and the compressed sky are not smooth there);
+           or within ``_SUN_BAND_CELLS`` cells plus ``_SUN_BAND_RAD`` of the (refracted) sun
+           (the disc, the sky's aureole, the forward-peaked phase function); or near a feature
            of the scattered light narrower than a few cells (the single-scattering step at the
-           horizon, sharp at shallow depth); and every
-           cell on the frame's border is rough (the resize extrapolates there). The exact chain
-           renders every valid pixel of a rough cell; the others are interpolated.
+           horizon, sharp at shallow depth); and every cell on the frame's border is rough (the
+           resize extrapolates there). This is geometry: the points' directions only.
+        2. The exact chain (:meth:`_render_points`) at the points a smooth cell reads (a point
+           whose cells are all rough is never read): the sensor-plane Stokes of all the light
+           and of the scattered light, in photons/s. The lens's polarization mapping is applied
+           at the points, so the meridian frame's singularity at the zenith is never
+           interpolated, only smooth sensor-plane fields. The exact chain renders every valid
+           pixel of a rough cell; the others are interpolated.
         3. Snell's window mask: exact in rough cells, elsewhere the nearest point's (a smooth
            cell lies wholly on one side of the edge). Occluded pixels of smooth cells lose the
            interpolated direct light (total − scattered at the points).
@@ -950,10 +1001,7 @@ class Polarimeter(Sensor):
         s = plan.stride
         hc, wc = h // s, w // s
         occ_any = bool(occluded.any())
-        tot_c, sees_c, scat_c = self._render_points(
-            plan.rays, plan.basis, plan.psf, c_cn, fc, parts="split" if occ_any else "total"
-        )
-        # --- rough points ----------------------------------------------------------------------
+        # --- rough points (geometry only) ------------------------------------------------------
         world = plan.rays64 @ c_cn.T
         cell = plan.cell_rad
         up = np.clip(world[:, 2], -1.0, 1.0)
@@ -967,9 +1015,20 @@ class Polarimeter(Sensor):
             cos_sun = np.clip(world @ fc.sun_look, -1.0, 1.0)
             rough |= np.arccos(cos_sun) < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
         cells = plan.rough_cells(rough)
+        # --- the exact chain at the points the smooth cells read --------------------------------
+        use = plan.smooth_corners(cells)
+        points = plan.points[use]
+        tot_c, sees_c, scat_c = self._render_points(
+            plan.rays[use],
+            np.take(plan.basis, use, axis=1),
+            plan.psf[use],
+            c_cn,
+            fc,
+            parts="split" if occ_any else "total",
+        )
         # --- the coarse frame, upsampled over the image circle's bounding box -------------------
         coarse = np.zeros((hc * wc, 3), dtype=np.float32)
-        coarse[plan.points] = tot_c
+        coarse[points] = tot_c
         st = np.zeros((h, w, 3), dtype=np.float32)
         b0, b1, a0, a1 = plan.roi
         roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
@@ -989,7 +1048,7 @@ class Polarimeter(Sensor):
         _scatter_rows(flat, idx, st_r)
         # --- Snell's window (the sky above the horizon, in air) ---------------------------------
         win_c = np.zeros(hc * wc, dtype=np.uint8)
-        win_c[plan.points] = sees_c
+        win_c[points] = sees_c
         window = cv2.resize(win_c.reshape(hc, wc), (w, h), interpolation=cv2.INTER_NEAREST)
         window = window.view(bool)
         win_flat = window.reshape(-1)
@@ -1002,7 +1061,7 @@ class Polarimeter(Sensor):
             if lose.size:
                 direct = np.zeros((hc * wc, 3), dtype=np.float32)
                 assert scat_c is not None
-                direct[plan.points] = tot_c - scat_c
+                direct[points] = tot_c - scat_c
                 flat[lose] -= plan.interpolate(direct.reshape(hc, wc, 3), lose)
                 np.maximum(flat[lose, 0], 0.0, out=flat[lose, 0])
             window &= ~occluded

@@ -415,13 +415,20 @@ class LightFieldTable:
         flat = self.key.wind_speed_mps == 0.0
         zn = self._sun_zenith_rad
         th_frame = (1.0 - f) * zn[i] + f * zn[i + 1]
+        # Each node's warp (rows and weights) depends on the frame's sun only: once per frame.
+        warps = None
+        if 0.0 < f < 1.0:
+            warps = (
+                self._warp_rows(float(zn[i]), th_frame),
+                self._warp_rows(float(zn[i + 1]), th_frame),
+            )
 
         def at(tab: FloatArray, ed: FloatArray, tau: float, warp: bool = True) -> FloatArray:
             a = self._at_depth(tab[i], ed[i], tau)
             b = self._at_depth(tab[i + 1], ed[i + 1], tau)
-            if warp and 0.0 < f < 1.0:
-                a = self._warp(a, float(zn[i]), th_frame)
-                b = self._warp(b, float(zn[i + 1]), th_frame)
+            if warp and warps is not None:
+                a = self._warp(a, *warps[0])
+                b = self._warp(b, *warps[1])
             return (1.0 - f) * a + f * b
 
         sun = at(sun_t, self.e_down_sun, tau_c)
@@ -474,21 +481,26 @@ class LightFieldTable:
     def _sun_zenith_rad(self) -> FloatArray:
         return np.radians(self.sun_zenith_water_deg)
 
-    def _warp(self, field: FloatArray, th_node: float, th_frame: float) -> FloatArray:
+    def _warp_rows(self, th_node: float, th_frame: float) -> tuple[NDArray[np.intp], FloatArray]:
+        """:meth:`_warp`'s source rows k and weights t for a node's sun and the frame's."""
+        gr = self._grid
+        n_in, tc, c = gr.n_in, gr.tc, gr.centres_in
+        src = np.interp(c, [0.0, th_frame, tc], [0.0, th_node, tc])
+        k = np.clip(np.searchsorted(c, src) - 1, 0, n_in - 2)
+        t = np.clip((src - c[k]) / (c[k + 1] - c[k]), 0.0, 1.0)[:, None, None]
+        return k, t
+
+    def _warp(self, field: FloatArray, k: NDArray[np.intp], t: FloatArray) -> FloatArray:
         """A node's field inside Snell's window with its sun moved to this frame's sun.
 
         Between sun nodes the light near the sun follows the sun while the window's edge stays:
         the rows inside the window are resampled (linearly in θ between their nodes) at
         θ' = warp(θ), piecewise linear with warp(0) = 0, warp(θ_frame) = θ_node and
-        warp(θ_c) = θ_c. (The aureole is interpolated in the sun's own frame instead.)
+        warp(θ_c) = θ_c (rows k and weights t: :meth:`_warp_rows`). (The aureole is interpolated
+        in the sun's own frame instead.)
         """
-        gr = self._grid
-        n_in, tc, c = gr.n_in, gr.tc, gr.centres_in
-        src = np.interp(c, [0.0, th_frame, tc], [0.0, th_node, tc])
         out = field.copy()
-        k = np.clip(np.searchsorted(c, src) - 1, 0, n_in - 2)
-        t = np.clip((src - c[k]) / (c[k + 1] - c[k]), 0.0, 1.0)[:, None, None]
-        out[:n_in] = (1.0 - t) * field[k] + t * field[k + 1]
+        out[: self._grid.n_in] = (1.0 - t) * field[k] + t * field[k + 1]
         return out
 
     def _node(self, sun_zenith_water_rad: float, n_water: float) -> tuple[int, float]:

@@ -356,6 +356,28 @@ def test_antialiased_sun_disc_keeps_its_energy() -> None:
     np.testing.assert_allclose(energies, expected, rtol=0.01)
 
 
+def test_each_samples_value_does_not_depend_on_the_others_evaluated_with_it() -> None:
+    # The disc's tail is cut at 7 of each sample's own σ, not of the widest σ in its block: the
+    # renderer evaluates the sky at the rays inside Snell's window only, and the blocks of
+    # 16 384 samples fall elsewhere then.
+    rng = np.random.default_rng(11)
+    s = _sun(35.0, 120.0)
+    near = s + rng.normal(scale=0.02, size=(40_000, 3))  # around the sun: the disc's candidates
+    p = np.vstack([near / np.linalg.norm(near, axis=1, keepdims=True), _hemisphere(3000, 2)])
+    p = p.astype(np.float32)
+    sigma = rng.uniform(1e-4, 8e-3, len(p))  # a 100× spread of PSF widths
+    # A disc 1e12 times the sky: the dropped tail (< 2.3e-11 of it) would show in float32.
+    spec = SkySpec(cie_type=12, sun_relative_radiance=1e12)
+    whole = sky_radiance(p, s, spec, psf_sigma_rad=sigma).stokes
+    # A part without the widest PSFs: a block's widest σ no longer reaches as far.
+    sel = np.flatnonzero((sigma < 4e-3) & (rng.random(len(p)) < 0.5))
+    part = sky_radiance(p[sel], s, spec, psf_sigma_rad=sigma[sel]).stokes
+    np.testing.assert_array_equal(part, whole[sel])
+    no_disc = sky_radiance(p[:40_000], s, SkySpec(cie_type=12, **NO_DISC)).stokes[:, 0]
+    lit = whole[:40_000, 0] > no_disc
+    assert 100 < lit.sum() < 40_000  # the disc lies among the samples, and not everywhere
+
+
 def test_night_sky_is_dark_and_valid() -> None:
     p = np.vstack([_hemisphere(500), [[0, 0, 1.0]], [[1, 0, 0.0]], [[0, 0.6, -0.8]]])
     s = _sun(95.0, 300.0)  # 5° below the horizon

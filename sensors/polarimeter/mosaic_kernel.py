@@ -1,0 +1,94 @@
+"""The sensor's per-pixel passes (numba): expected charge, then noise, gain and the ADC.
+
+Stage 7 of the polarimeter chain, the arithmetic of :class:`sensors.polarimeter.mosaic.DoFPSensor`
+in two compiled loops over a band of pixels, in place of five OpenCV/numpy passes
+(``cv2.multiply`` + ``cv2.transform``; ``np.add`` + ``np.sqrt`` + ``cv2.accumulateProduct`` +
+``cv2.addWeighted`` + ``cv2.min``). Why: each of those streams the band through memory once; the
+loops stream it once per pass and keep the temporaries in registers (a 612×512 frame's sensor
+stage 1.9 → 1.5 ms, ``benchmarks/results/polarimeter_frame.md``).
+
+Same numbers: the loops do the float32 operations OpenCV 4.14's AVX2 paths do, in their order,
+with their fused multiply-adds (``llvm.fma``, :func:`fma32`), so the raw frames are the OpenCV
+chain's bit for bit (``tests/sensors/polarimeter/test_mosaic_kernel.py`` compares them with
+:meth:`DoFPSensor._render_mosaic_reference`, the OpenCV chain, kept for that):
+
+* expected charge, ``cv2.transform`` with the row [t, t, t, dark] on p = S ∘ a (per channel):
+  fma(t, p₂, fma(t, p₀, t p₁)) + dark;
+* noise, ``cv2.accumulateProduct``: fma(√(λ + σ²), z, λ);
+* gain and offset, ``cv2.addWeighted(λ, 1/K, DSNU, 1/K, black)``:
+  fma(λ, 1/K, fma(DSNU, 1/K, black)) (without DSNU, β = 0: fma(λ, 1/K, black)), rounded half to
+  even and saturated to uint16.
+
+One difference, a fix: OpenCV rounds through int32 and turns a value past 2³¹ into 0. The ideal
+camera's sun can get there (K = 1 e⁻/DN, its auto exposure set by the sky), and read black;
+the loop saturates it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def fma32(typingctx, a, b, c):
+    """a·b + c rounded once (float32), as the hardware's fused multiply-add computes it."""
+    sig = types.float32(types.float32, types.float32, types.float32)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+@njit(cache=True, error_model="numpy")
+def expected_charge(stokes, analysis, t_s, dark_e, out):
+    """out[k] = max(t·(S·a)[k] + dark, 0) for flat (3 m,) Stokes and analysis, (m,) out."""
+    zero = np.float32(0.0)
+    for k in range(out.shape[0]):
+        p0 = stokes[3 * k] * analysis[3 * k]
+        p1 = stokes[3 * k + 1] * analysis[3 * k + 1]
+        p2 = stokes[3 * k + 2] * analysis[3 * k + 2]
+        out[k] = max(fma32(t_s, p2, fma32(t_s, p0, t_s * p1)) + dark_e, zero)
+
+
+@njit(cache=True, error_model="numpy")
+def add_hot(stokes, analysis, t_s, dark_e, index, extra, out):
+    """out[i] = max(t·(S·a)[i] + dark + extra, 0) at the hot pixels ``index`` (the extra dark)."""
+    zero = np.float32(0.0)
+    for i in index:
+        p0 = stokes[3 * i] * analysis[3 * i]
+        p1 = stokes[3 * i + 1] * analysis[3 * i + 1]
+        p2 = stokes[3 * i + 2] * analysis[3 * i + 2]
+        out[i] = max((fma32(t_s, p2, fma32(t_s, p0, t_s * p1)) + dark_e) + extra, zero)
+
+
+@njit(cache=True, error_model="numpy")
+def shot_and_read(lam, z, read_var):
+    """λ ← λ + √(λ + σ²)·z in place: shot and read noise as one Gaussian (float32)."""
+    for k in range(lam.shape[0]):
+        v = lam[k]
+        lam[k] = fma32(np.float32(math.sqrt(v + read_var)), z[k], v)
+
+
+@njit(cache=True, error_model="numpy")
+def to_dn(lam, dsnu, has_dsnu, inv_k, black, sat, out):
+    """The raw DN: min(saturate_u16(rint(λ/K + DSNU/K + black)), sat) over flat (m,) arrays."""
+    top = np.float32(65535.0)
+    zero = np.float32(0.0)
+    for k in range(lam.shape[0]):
+        v = lam[k]
+        if has_dsnu:
+            x = fma32(v, inv_k, fma32(dsnu[k], inv_k, black))
+        else:
+            x = fma32(v, inv_k, black)
+        r = np.rint(x)
+        if not r > zero:  # NaN too, as OpenCV's rounding of a NaN to int saturates to 0
+            r = zero
+        elif r > top:
+            r = top
+        u = np.uint16(r)
+        out[k] = u if u < sat else sat
