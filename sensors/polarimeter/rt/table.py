@@ -445,7 +445,12 @@ class LightFieldTable:
         g = e_sun_plane * sun + e_sky_plane * sky_f
         field = self._pad(g.astype(np.float32))
         aur = e_sun_plane * at(self.aureole_grid, self.e_down_sun, tau_c, warp=False)
-        up_grid = _NONE if up is None else self._pad(up.astype(np.float32)).outside
+        gr = self._grid
+        up_grid = (
+            _NONE
+            if up is None
+            else self._pad_rows(up.astype(np.float32)[gr.n_in :], False, gr.nadir_last)
+        )
         return dataclasses.replace(
             field,
             aureole=np.ascontiguousarray(aur, dtype=np.float32),
@@ -538,31 +543,35 @@ class LightFieldTable:
 
     def _pad(self, g: FloatArray) -> FrameField:
         gr = self._grid
-        tc = math.asin(1.0 / TABLE_INDEX)
         n_in = gr.n_in
-        parts = []
-        phi = gr.phi
-        for rows, theta, zenith, nadir in (
-            (g[:n_in], gr.theta_in, gr.zenith_first, False),
-            (g[n_in:], gr.theta_out, False, gr.nadir_last),
-        ):
-            first, last = rows[:1].copy(), rows[-1:].copy()
-            # At the zenith and the nadir the light has one radiance and one polarization: the
-            # ring's mean I, and the m = 2 harmonic of (Q, U) that a fixed polarization has in
-            # the meridian frame.
-            if zenith:
-                first = _pole(rows[0], phi)[None]
-            if nadir:
-                last = _pole(rows[-1], phi)[None]
-            r = np.concatenate([first, rows, last], axis=0)
-            lo = r[:, :1].copy()
-            lo[..., 2] *= -1.0
-            hi = r[:, -1:].copy()
-            hi[..., 2] *= -1.0
-            grid = np.ascontiguousarray(np.concatenate([lo, r, hi], axis=1))
-            parts.append((grid, theta))
-        (gin, tin), (gout, tout) = parts
-        return FrameField(gin, tin, gout, tout, tc, math.pi / self.n_phi)
+        gin = self._pad_rows(g[:n_in], gr.zenith_first, False)
+        gout = self._pad_rows(g[n_in:], False, gr.nadir_last)
+        tc = math.asin(1.0 / TABLE_INDEX)
+        return FrameField(gin, gr.theta_in, gout, gr.theta_out, tc, math.pi / self.n_phi)
+
+    def _pad_rows(self, rows: FloatArray, zenith: bool, nadir: bool) -> FloatArray:
+        """Rows padded with a first and a last row, and mirrored first and last columns.
+
+        At the zenith and the nadir the light has one radiance and one polarization: the ring's
+        mean I, and the m = 2 harmonic of (Q, U) that a fixed polarization has in the meridian
+        frame; elsewhere the end rows repeat. The mirrored columns change U's sign.
+        """
+        n, m = rows.shape[0], rows.shape[1]
+        grid = np.empty((n + 2, m + 2, 3), dtype=rows.dtype)
+        grid[1:-1, 1:-1] = rows
+        grid[0, 1:-1] = _pole(rows[0], *self._pole_basis) if zenith else rows[0]
+        grid[-1, 1:-1] = _pole(rows[-1], *self._pole_basis) if nadir else rows[-1]
+        grid[:, 0] = grid[:, 1]
+        grid[:, 0, 2] *= -1.0
+        grid[:, -1] = grid[:, -2]
+        grid[:, -1, 2] *= -1.0
+        return grid
+
+    @functools.cached_property
+    def _pole_basis(self) -> tuple[FloatArray, FloatArray]:
+        """The cos 2φ and sin 2φ of the azimuth bins' centres (:func:`_pole`)."""
+        phi = self._grid.phi
+        return np.cos(2 * phi), np.sin(2 * phi)
 
 
 def blend(parts: list[tuple[float, FrameField]]) -> FrameField:
@@ -666,9 +675,11 @@ def _pole_ring(rings: FloatArray, n_phi: int) -> FloatArray:
     return out
 
 
-def _pole(ring: FloatArray, phi: FloatArray) -> FloatArray:
-    """(n_phi, 3) the zenith's (or nadir's) Stokes in each column's meridian frame."""
-    c2, s2 = np.cos(2 * phi), np.sin(2 * phi)
+def _pole(ring: FloatArray, c2: FloatArray, s2: FloatArray) -> FloatArray:
+    """(n_phi, 3) the zenith's (or nadir's) Stokes in each column's meridian frame.
+
+    ``c2``, ``s2``: cos 2φ and sin 2φ at the columns' azimuths φ.
+    """
     a = 2.0 * np.mean(ring[:, 1] * c2)  # Q = a cos 2φ (the ring's own m = 2 terms)
     b = 2.0 * np.mean(ring[:, 2] * s2)  # U = b sin 2φ
     out = np.empty_like(ring)
