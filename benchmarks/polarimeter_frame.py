@@ -11,7 +11,7 @@ the exact chain near Snell's window edge and the sun); the exact chain at every 
 timed separately against the open-sea scene (mj_multiRay on the coarse grid).
 
     OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/polarimeter_frame.py [--repeats N] \
-        [--baseline REV]
+        [--baseline REV [--rounds R]]
 """
 
 from __future__ import annotations
@@ -106,28 +106,51 @@ def time_preset(preset: str, repeats: int) -> dict[str, float | str | int]:
     }
 
 
-def _baseline(rev: str, repeats: int) -> dict:
-    """This benchmark as revision ``rev`` ran it, now, on this machine (its own script and code)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        tree = Path(tmp) / "baseline"
-        subprocess.run(
-            ["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree), rev],
-            check=True,
-        )
-        try:
-            env = {**os.environ, "PYTHONPATH": str(tree)}
-            subprocess.run(
-                [sys.executable, "benchmarks/polarimeter_frame.py", "--repeats", str(repeats)],
-                cwd=tree,
-                env=env,
-                check=True,
-                stdout=subprocess.DEVNULL,
-            )
-            return json.loads((tree / "benchmarks/results/polarimeter_frame.json").read_text())
-        finally:
-            subprocess.run(
-                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)], check=False
-            )
+def _run_tree(tree: Path, repeats: int) -> list[dict]:
+    """This benchmark's rows as the tree at ``tree`` times them, in a fresh interpreter.
+
+    A baseline tree runs its own script (which writes its own results file, read back here); so
+    does this tree (``--child``), so that both sides of a comparison start alike.
+    """
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    cmd = [sys.executable, "benchmarks/polarimeter_frame.py", "--repeats", str(repeats)]
+    if tree == ROOT:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "rows.json"
+            subprocess.run([*cmd, "--child", str(out)], cwd=tree, env=env, check=True)
+            return json.loads(out.read_text())
+    subprocess.run(cmd, cwd=tree, env=env, check=True, stdout=subprocess.DEVNULL)
+    return json.loads((tree / "benchmarks/results/polarimeter_frame.json").read_text())["rows"]
+
+
+def _summarise(runs: list[list[dict]]) -> list[dict]:
+    """Per preset, the median of each time over the rounds, with its [min, max]."""
+    out = []
+    for rows in zip(*runs, strict=True):
+        row = dict(rows[0])
+        for key in TIMES:
+            vals = [r[key] for r in rows]
+            row[key] = float(np.median(vals))
+            row[f"{key}_range"] = [float(min(vals)), float(max(vals))]
+        out.append(row)
+    return out
+
+
+TIMES = (
+    "optics_ms",
+    "exact_optics_ms",
+    "sensor_ms",
+    "frame_ms",
+    "occlusion_ms",
+    "frame_with_occlusion_ms",
+)
+
+
+def _cell(r: dict, key: str) -> str:
+    lo_hi = r.get(f"{key}_range")
+    if lo_hi is None or lo_hi[0] == lo_hi[1]:
+        return f"{r[key]:.1f} ms"
+    return f"{r[key]:.1f} ms [{lo_hi[0]:.1f}–{lo_hi[1]:.1f}]"
 
 
 def main() -> None:
@@ -136,11 +159,47 @@ def main() -> None:
     ap.add_argument(
         "--baseline",
         metavar="REV",
-        help="also time this git revision, in the same session (a temporary worktree), first",
+        help="also time this git revision, in the same session (a temporary worktree)",
     )
+    ap.add_argument(
+        "--rounds",
+        type=int,
+        default=1,
+        help="with --baseline: rounds of baseline then this tree, each in a fresh interpreter; "
+        "the table gives each time's median over the rounds and its range",
+    )
+    ap.add_argument("--child", metavar="JSON", help=argparse.SUPPRESS)
     args = ap.parse_args()
-    base = _baseline(args.baseline, args.repeats) if args.baseline else None
-    rows = [time_preset(p, args.repeats) for p in ("phx050s_p", "phx050s_p_bin4")]
+    presets = ("phx050s_p", "phx050s_p_bin4")
+    if args.child:  # one round of this tree, for a parent that interleaves it with a baseline
+        Path(args.child).write_text(json.dumps([time_preset(p, args.repeats) for p in presets]))
+        return
+    if args.rounds < 1:
+        ap.error(f"--rounds: {args.rounds}; allowed: an integer >= 1")
+    base = None
+    if args.baseline:
+        with tempfile.TemporaryDirectory() as tmp:
+            tree = Path(tmp) / "baseline"
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree),
+                 args.baseline],
+                check=True,
+            )  # fmt: skip
+            try:
+                base_runs, runs = [], []
+                for k in range(args.rounds):
+                    print(f"round {k + 1}/{args.rounds}", flush=True)
+                    base_runs.append(_run_tree(tree, args.repeats))
+                    runs.append(_run_tree(ROOT, args.repeats))
+            finally:
+                subprocess.run(
+                    ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
+                    check=False,
+                )
+        base = {"rows": _summarise(base_runs)}
+        rows = _summarise(runs)
+    else:
+        rows = [time_preset(p, args.repeats) for p in presets]
     meta = {
         "machine": platform.platform(),
         "cpu_count": os.cpu_count(),
@@ -148,6 +207,7 @@ def main() -> None:
         "cpu_affinity": sorted(os.sched_getaffinity(0)),
         "load_average_1_5_15": [round(x, 2) for x in os.getloadavg()],
         "repeats": args.repeats,
+        "rounds": args.rounds if args.baseline else 1,
         "date": time.strftime("%Y-%m-%d"),
         "provenance": pv.provenance(),
     }
@@ -155,10 +215,16 @@ def main() -> None:
     (RESULTS / "polarimeter_frame.json").write_text(
         json.dumps({"meta": meta, "rows": rows, "baseline": base}, indent=2, default=str)
     )
+    how = f"best of {args.repeats}"
+    if meta["rounds"] > 1:
+        how += (
+            f" in each of {meta['rounds']} rounds (baseline, then this tree, each in a fresh "
+            "interpreter); each time is the median over the rounds [its range]"
+        )
     lines = [
         "# Polarimeter frame time (one core)",
         "",
-        f"`python benchmarks/polarimeter_frame.py`, best of {args.repeats}, {meta['date']}, "
+        f"`python benchmarks/polarimeter_frame.py`, {how}, {meta['date']}, "
         f"{meta['machine']}, one core (CPUs {meta['cpu_affinity']}), load average "
         f"{meta['load_average_1_5_15']} (a shared VM: runs vary by up to ±30 %). Level camera, "
         "10 m, Jerlov II, flat sea, sun 40° from the zenith.",
@@ -175,14 +241,14 @@ def main() -> None:
         target = "≤ 100 ms" if r["preset"] == "phx050s_p" else "≤ 10 ms"
         share = f"{r['exact_pixels']} of {r['valid_pixels']} px"
         lines.append(
-            f"| {r['preset']}{tag} | {r['shape']} | {r['optics_ms']:.1f} ms ({share}) "
-            f"| {r['exact_optics_ms']:.1f} ms | {r['sensor_ms']:.1f} ms "
-            f"| {r['frame_ms']:.1f} ms | {r['frame_with_occlusion_ms']:.1f} ms | {target} |"
+            f"| {r['preset']}{tag} | {r['shape']} | {_cell(r, 'optics_ms')} ({share}) "
+            f"| {_cell(r, 'exact_optics_ms')} | {_cell(r, 'sensor_ms')} "
+            f"| {_cell(r, 'frame_ms')} | {_cell(r, 'frame_with_occlusion_ms')} | {target} |"
         )
     lines += [
         "",
-        'Rows marked "at REV" are that revision\'s own benchmark, run in the same session '
-        "just before on the same core (`--baseline REV`): old and new side by side.",
+        'Rows marked "at REV" are that revision\'s own benchmark, run in the same session on '
+        "the same core (`--baseline REV`): old and new side by side.",
     ]
     (RESULTS / "polarimeter_frame.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
