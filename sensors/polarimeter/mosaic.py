@@ -66,11 +66,11 @@ VM: numpy's ``Generator.poisson`` takes 47 ns a sample at λ = 1000 and 91 ns at
 * Fixed-pattern maps are drawn once per :class:`DoFPSensor` from the Generator given to its
   constructor (numpy); temporal noise per frame from the Generator given to the frame call.
 
-Work is done in bands of rows so the temporaries stay in cache. Measured on one thread of the
-shared dev VM (best of 20; the spread is the VM's load): a 2448×2048 frame takes 43–68 ms — about
-18–24 ms of it drawing 5 M normals, 15–20 ms streaming the 60 MB Stokes input against the 60 MB
-per-pixel analysis map — and a 612×512 frame 2.7–4.5 ms. The ideal camera (no noise) takes
-18–30 ms and 0.9–2 ms.
+Work is done in bands of rows so the temporaries stay in cache; the per-pixel arithmetic runs in
+two compiled passes (:mod:`sensors.polarimeter.mosaic_kernel`: the OpenCV chain's raw frames bit
+for bit). Measured on one core of the shared dev VM, 2026-12-06
+(``benchmarks/results/polarimeter_frame.md``, median of 3 rounds): 24.5 ms a 2448×2048 frame
+(30.8 ms with the OpenCV chain), of which ~18 ms draw 5 M normals; 1.5 ms a 612×512 frame (1.9).
 
 Sources: Sony IMX250MZR/IMX264MZR facts and the noise model: ../shared/reference/optics.md §3.1–3.3
 (EMVA 1288 figures of the mono IMX250 via MATRIX VISION mvBlueFOX3-2051); PHX050S-P: extinction
