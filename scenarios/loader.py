@@ -37,7 +37,6 @@ from scenarios.schema import (
     MOUNTING_MODELS,
     NAV_ALIGNMENTS,
     NAV_TUNINGS,
-    NAV_VARIANTS,
     PARTICLE_MODELS,
     SCENES,
     SKY_POLARIZATION_MODELS,
@@ -70,8 +69,10 @@ from scenarios.schema import (
     Vec2,
     Water,
     WaypointLeg,
+    nav_variants,
 )
 from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from twin.core.extensions import INS_ONLY
 
 T = TypeVar("T")
 
@@ -1046,6 +1047,7 @@ def _autopilot(t: _Table | None) -> Autopilot | None:
 def _navigation(t: _Table | None) -> Navigation | None:
     if t is None:
         return None
+    choices = nav_variants()
     raw = t._raw("variants", [], "a list of variant names")
     variants: tuple[str, ...] | None = ()
     if not isinstance(raw, _Default):
@@ -1061,10 +1063,10 @@ def _navigation(t: _Table | None) -> Navigation | None:
         else:
             names: list[str] = []
             for i, v in enumerate(raw):
-                if not isinstance(v, str) or v not in NAV_VARIANTS:
+                if not isinstance(v, str) or v not in choices:
                     t.report.add(
                         f"{path}[{i}]",
-                        MSG_NOT_A_CHOICE.format(value=_show(v), choices=_choices(NAV_VARIANTS)),
+                        MSG_NOT_A_CHOICE.format(value=_show(v), choices=_choices(choices)),
                     )
                     variants = None
                 elif v in names:
@@ -1074,7 +1076,7 @@ def _navigation(t: _Table | None) -> Navigation | None:
                     names.append(v)
             if variants is not None:
                 variants = tuple(names)
-    steer_on = t.string("steer_on", choices=NAV_VARIANTS, default="")
+    steer_on = t.string("steer_on", choices=choices, default="")
     if variants is not None and steer_on and steer_on not in variants:
         t.report.add(
             t.at("steer_on"),
@@ -1093,11 +1095,52 @@ def _navigation(t: _Table | None) -> Navigation | None:
         sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="azimuth"),
         tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
         alignment=t.string("alignment", choices=NAV_ALIGNMENTS, default="paper"),
+        methods=_method_params(t.table("methods"), variants),
     )
     t.finish()
     if nav is not None and nav.steer_on == "":
         nav = dataclasses.replace(nav, steer_on=None)
     return nav
+
+
+def _method_params(
+    t: _Table | None, variants: tuple[str, ...] | None
+) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] | None:
+    """``[navigation.methods.<name>]``: each compass method's config fields, for a method run.
+
+    The fields and their values are checked by building the method as a run does
+    (``twin.app.simulation.check_navigation``); here, the tables' shapes and names.
+    """
+    if t is None:
+        return None
+    out = []
+    ok = True
+    for name, params in t.data.items():
+        t.known.append(name)
+        path = t.at(name)
+        if not isinstance(params, Mapping):
+            expected = "a table of the method's parameters"
+            t.report.add(
+                path,
+                MSG_WRONG_TYPE.format(
+                    value=_show(params), type_name=_type_name(params), expected=expected
+                ),
+            )
+            ok = False
+        elif name == INS_ONLY:
+            t.report.add(path, f"{_show(name)} has no compass method to configure")
+            ok = False
+        elif variants is not None and name not in variants:
+            run = [v for v in variants if v != INS_ONLY]
+            t.report.add(
+                path,
+                f"configures {_show(name)}, which is not a compass method run here; "
+                f"allowed: the compass variants in navigation.variants ({run})",
+            )
+            ok = False
+        else:
+            out.append((name, tuple(params.items())))
+    return tuple(out) if ok else None
 
 
 def _recording(t: _Table | None) -> Recording | None:

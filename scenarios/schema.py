@@ -23,6 +23,7 @@ from typing import Any, Literal, TypeAlias
 # The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
 # defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
 from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from twin.core.extensions import COMPASS_METHODS, INS_ONLY
 from twin.core.mission import (
     MISSION_KINDS,
     HeadingLeg,
@@ -368,15 +369,17 @@ class Hardware:
         return cls(calibration="ideal", mounting="ideal", lens="ideal")
 
 
-#: Navigation filter variants: "ins" = strapdown INS aided by gravity and depth only (no heading
-#: aid); every other name is a compass method (``twin.onboard.compass``) whose solar vector also
-#: aids the filter (POL/INS, LIG/INS, ...).
-#: ``<method>_paper`` is the method as its paper writes it; ``<method>`` is the twin's
-#: refinement (docs/compass_methods.md lists the departures and their measured effects).
-NAV_VARIANTS: tuple[str, ...] = (
-    "ins", "lig", "lig_paper", "pol", "pol_paper", "roia", "roia_paper", "snell", "snell_paper",
-    "moi", "patz", "ht",
-)  # fmt: skip
+def nav_variants() -> tuple[str, ...]:
+    """Navigation filter variants: :data:`INS_ONLY`, then every compass method.
+
+    A compass method's solar vector also aids the filter (POL/INS, LIG/INS, ...). The names are
+    the registry's (:data:`twin.core.extensions.COMPASS_METHODS`: the project's methods and
+    installed plug-ins); ``<method>_paper`` is the method as its paper writes it, ``<method>``
+    the twin's refinement (docs/compass_methods.md lists the departures and their effects).
+    """
+    return (INS_ONLY, *COMPASS_METHODS.names())
+
+
 NAV_TUNINGS: tuple[str, ...] = ("imu", "datasheet", "paper")
 NAV_ALIGNMENTS: tuple[str, ...] = ("paper", "gyrocompass")
 SUN_MEASUREMENTS: tuple[str, ...] = ("vector", "azimuth")
@@ -387,7 +390,7 @@ class Navigation:
     """The onboard navigation filters run inside the loop, side by side on one sensor stream.
 
     Attributes:
-        variants: Filter variants (:data:`NAV_VARIANTS`); empty = no onboard navigation.
+        variants: Filter variants (:func:`nav_variants`); empty = no onboard navigation.
         steer_on: The variant the autopilot follows when ``autopilot.attitude_source`` is
             ``"estimate"``; None = the first compass variant (else the first variant).
         compass_rate_hz: How often the compass methods process a polarimeter frame (≤ the
@@ -412,6 +415,9 @@ class Navigation:
             axis; ``"gyrocompass"``: what a 10-minute stationary fine alignment leaves with the
             declared IMU (tilt = accelerometer bias / g, heading = gyro error / horizontal Earth
             rate: ``twin.onboard.alignment``); refused for an IMU that cannot find north.
+        methods: Each compass method's parameters, ``(name, ((field, value), ...))``: its
+            config's fields (``[navigation.methods.<name>]`` in a scenario file), checked by
+            building the method as a run does.
     """
 
     variants: tuple[str, ...] = ()
@@ -424,12 +430,17 @@ class Navigation:
     sun_measurement: str = "azimuth"
     tuning: str = "imu"
     alignment: str = "paper"
+    methods: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+
+    def method_params(self, name: str) -> dict[str, Any]:
+        """The parameters given to compass method ``name`` (empty: its defaults)."""
+        return dict(next((p for n, p in self.methods if n == name), ()))
 
     @property
     def steering_variant(self) -> str | None:
         if self.steer_on is not None:
             return self.steer_on
-        compass = [v for v in self.variants if v != "ins"]
+        compass = [v for v in self.variants if v != INS_ONLY]
         return compass[0] if compass else (self.variants[0] if self.variants else None)
 
 
@@ -554,13 +565,20 @@ class Scenario:
             "optics": _plain(self.optics),
             "autopilot": _plain(self.autopilot),
             "recording": _plain(self.recording),
-            "navigation": {k: v for k, v in _plain(self.navigation).items() if v is not None},
+            "navigation": _navigation_dict(self.navigation),
             "hardware": _hardware_dict(self.hardware),
             "gravity": {k: v for k, v in _plain(self.gravity).items() if v is not None},
         }
         if self.water.seabed_depth_m is None:
             del out["water"]["seabed_depth_m"]
         return out
+
+
+def _navigation_dict(nav: Navigation) -> dict[str, Any]:
+    out = {k: v for k, v in _plain(nav).items() if v is not None and k != "methods"}
+    if nav.methods:
+        out["methods"] = {name: {k: _plain(v) for k, v in params} for name, params in nav.methods}
+    return out
 
 
 def _plain(value: Any) -> Any:

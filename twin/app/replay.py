@@ -380,9 +380,10 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
     skipped: dict[str, int] = {}
     max_gap = cfg.eskf.ins.max_dt_s
     role_of = {top[r]: r for r in ("imu", "depth", "polarimeter", "reference")}
+    params = scenario.navigation.method_params
     init = _init_from(meta, None) if "nav_init" in meta else None
     if init is not None:
-        navs = {v: Navigator(v, knowledge, init, cfg) for v in variants}
+        navs = {v: Navigator(v, knowledge, init, cfg, method_params=params(v)) for v in variants}
     for m in messages:
         role = role_of.get(m.topic)
         if role is None or (role == "polarimeter" and not compass):
@@ -400,7 +401,11 @@ def _replay_into(rec: Recorder, setup: _Setup) -> dict[str, Any]:
         if role == "reference":
             truth = _truth_from_odom(m.msg, t, scenario)
             if navs is None:
-                navs = {v: Navigator(v, knowledge, _init_from(meta, truth), cfg) for v in variants}
+                init_t = _init_from(meta, truth)
+                navs = {
+                    v: Navigator(v, knowledge, init_t, cfg, method_params=params(v))
+                    for v in variants
+                }
             log_truth(rec, truth)
             for v, nav in navs.items():
                 sample = scores[v].add(nav, truth)

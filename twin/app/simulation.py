@@ -21,13 +21,14 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from scenarios.schema import Scenario
+from scenarios.schema import Navigation, Scenario
 from sensors.suite import SensorSuite
 from twin.app.navsources import TruthNav
 from twin.core.earth import principal_radii
 from twin.core.frames import quat_to_dcm
 from twin.core.messages import ActuatorCommand, Reading
 from twin.core.mission import PlannedMission
+from twin.onboard import compass
 from twin.onboard.alignment import AlignmentError, gyrocompass_sigma
 from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, Setpoint
 from twin.onboard.control.guidance import Guidance, GuidanceStatus
@@ -228,18 +229,30 @@ def check_navigation(scenario: Scenario) -> list[str]:
     An IMU that cannot find north at the scenario's latitude cannot gyrocompass.
     """
     nav = scenario.navigation
+    problems = _method_problems(nav)
     if not nav.variants or nav.alignment != "gyrocompass" or nav.tuning == "paper":
-        return []
+        return problems
     s = scenario.sensors
     try:
         spec = make_sensor("imu", s.imu, s.imu_overrides).spec
     except ValueError:
-        return []  # check_sensors reports the IMU itself
+        return problems  # check_sensors reports the IMU itself
     try:
         gyrocompass_sigma(_imu_grade(spec), math.radians(scenario.place.latitude_deg))
     except AlignmentError as exc:
-        return [f'navigation.alignment: "gyrocompass" with sensors.imu {s.imu!r}: {exc}']
-    return []
+        problems.append(f'navigation.alignment: "gyrocompass" with sensors.imu {s.imu!r}: {exc}')
+    return problems
+
+
+def _method_problems(nav: Navigation) -> list[str]:
+    """Each configured compass method built as a run builds it; what that would raise."""
+    problems = []
+    for name, params in nav.methods:
+        try:
+            compass.create(name, **dict(params))
+        except (ValueError, TypeError) as exc:
+            problems.append(f"navigation.methods.{name}: {exc}")
+    return problems
 
 
 def _imu_grade(spec: Any) -> ImuGrade:
@@ -394,4 +407,7 @@ def _navigators(
         camera=cam.name if cam is not None else "polarimeter",
         gravity_map=stored,
     )
-    return {v: Navigator(v, knowledge, init, cfg) for v in nav.variants}
+    return {
+        v: Navigator(v, knowledge, init, cfg, method_params=nav.method_params(v))
+        for v in nav.variants
+    }

@@ -6,7 +6,8 @@ for studies that are not a flight: the MOI paper's noise study runs one random s
 through the three axis methods on an ideal imager (:mod:`twin.campaign.moi_noise`). The campaign
 machinery (sweeps, seeds, run ids, workers, Ray, resume, reports) is the same for both.
 
-A study is named in a spec by ``trial = "<name>"`` (the registry below) or
+A study is named in a spec by ``trial = "<name>"`` (:data:`twin.core.extensions.STUDY_TRIALS`:
+the project's and installed packages' ``auv_twin.trials`` entry points) or
 ``trial = "package.module:function"`` for a user's own, importable in every worker. Its
 parameters are the study's ``defaults`` overridden by ``[set]`` and the sweep axes (plain
 names); ``check`` names every bad parameter before anything runs.
@@ -18,6 +19,8 @@ import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+from twin.core.extensions import STUDY_TRIALS
 
 #: The trial kind of a spec without ``trial``.
 SCENARIO = "scenario"
@@ -42,30 +45,33 @@ class StudyTrial:
     check: Callable[[Mapping[str, Any]], list[str]] = field(default=lambda _p: [])
 
 
-_REGISTRY: dict[str, str] = {
-    "moi_noise": "twin.campaign.moi_noise:TRIAL",
-    "snell_turntable": "twin.campaign.snell_turntable:TRIAL",
-    "roia_static": "twin.campaign.roia_static:TRIAL",
-    "lig_tank": "twin.campaign.lig_tank:TRIAL",
-}
-
-
 def load_trial(name: str) -> StudyTrial:
     """The study trial of a spec's ``trial`` value.
+
+    A name from :data:`twin.core.extensions.STUDY_TRIALS` (the project's trials and installed
+    packages' ``auv_twin.trials`` entry points), or ``"package.module:name"``.
 
     Raises:
         ValueError: Unknown name, or a ``module:attr`` that does not import or is not a trial.
     """
-    target = _REGISTRY.get(name, name)
+    if name in STUDY_TRIALS.names():
+        obj = STUDY_TRIALS.load(name)
+        return _as_trial(name, obj)
+    target = name
     if ":" not in target:
         raise ValueError(
-            f"{name!r}; allowed: {SCENARIO!r}, one of {sorted(_REGISTRY)}, or 'package.module:name'"
+            f"{name!r}; allowed: {SCENARIO!r}, one of {list(STUDY_TRIALS.names())}, or "
+            "'package.module:name'"
         )
     module, _, attr = target.partition(":")
     try:
         obj = getattr(importlib.import_module(module), attr)
     except (ImportError, AttributeError) as exc:
         raise ValueError(f"{name!r} does not import: {exc}") from None
+    return _as_trial(name, obj)
+
+
+def _as_trial(name: str, obj: Any) -> StudyTrial:
     if isinstance(obj, StudyTrial):
         return obj
     if callable(obj):  # a bare function: no defaults, any parameters

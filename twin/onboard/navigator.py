@@ -22,13 +22,16 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from twin.core import earth
 from twin.core.calibration import CameraCalibration
 from twin.core.ephemeris import sun_direction_enu
+from twin.core.extensions import INS_ONLY
 from twin.core.messages import Reading
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
@@ -36,7 +39,6 @@ from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
 #: The variant that uses no compass: INS aided by gravity and depth only.
-INS_ONLY = "ins"
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +119,8 @@ class Navigator:
         knowledge: The vehicle's declared knowledge.
         init: Initial navigation solution (from the launch alignment).
         config: How it runs.
+        method_params: The compass method's config fields (the scenario's
+            ``[navigation.methods.<variant>]``); empty: its defaults.
     """
 
     def __init__(
@@ -125,11 +129,15 @@ class Navigator:
         knowledge: VehicleKnowledge,
         init: NavState,
         config: NavigatorConfig | None = None,
+        method_params: Mapping[str, Any] | None = None,
     ):
         self.variant = variant
         self.knowledge = knowledge
         self.config = config or NavigatorConfig()
-        self.method = None if variant == INS_ONLY else create(variant)
+        params = dict(method_params or {})
+        if variant == INS_ONLY and params:
+            raise ValueError(f"navigation variant {INS_ONLY!r} has no compass method to configure")
+        self.method = None if variant == INS_ONLY else create(variant, **params)
         if self.method is not None and knowledge.calibration is None:
             raise ValueError(
                 f"navigation variant {variant!r} needs a polarimeter calibration; the vehicle "

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sensors
-from scenarios.schema import NAV_VARIANTS
+from scenarios.schema import nav_variants
 from sensors.polarimeter.render import OpticsConfig
 from twin.onboard.compass.base import CompassContext, available, create
 from twin.onboard.compass.lig import LIG_PAPER, LigConfig, _paper_normals
@@ -17,7 +17,7 @@ from twin.onboard.compass.lig import LIG_PAPER, LigConfig, _paper_normals
 
 def test_the_papers_method_is_registered_and_a_scenario_can_name_it():
     assert {"lig", "lig_paper"} <= set(available())
-    assert "lig_paper" in NAV_VARIANTS
+    assert "lig_paper" in nav_variants()
     m = create("lig_paper")
     assert m.config == LIG_PAPER
     assert LIG_PAPER.mapping == "paper" and LIG_PAPER.window_margin_rad == 0.0

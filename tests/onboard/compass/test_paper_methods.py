@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import sensors
-from scenarios.schema import NAV_VARIANTS
+from scenarios.schema import nav_variants
 from sensors.polarimeter.render import OpticsConfig
 from twin.campaign.moi_noise import ideal_aop, imager
 from twin.core.frames import euler_to_dcm
@@ -30,7 +30,7 @@ PAPER_CONFIGS = {"pol_paper": POL_PAPER, "roia_paper": ROIA_PAPER, "snell_paper"
 
 def test_every_registered_method_is_a_scenario_variant_and_back():
     # The schema's list is a copy; this ties it to the registry both ways.
-    assert set(NAV_VARIANTS) - {"ins"} == set(available())
+    assert set(nav_variants()) - {"ins"} == set(available())
 
 
 @pytest.mark.parametrize("name", sorted(PAPER_CONFIGS))

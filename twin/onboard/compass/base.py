@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
 from twin.core.ephemeris import sun_direction_enu
+from twin.core.extensions import COMPASS_METHODS
 from twin.core.frames import euler_to_dcm, wrap_pi
 
 FloatArray = NDArray[np.float64]
@@ -325,33 +326,43 @@ class CompassMethod(abc.ABC):
         """The method's own algorithm on a checked frame with the sun above the horizon."""
 
 
-_REGISTRY: dict[str, type] = {}
+def _check_method(name: str, obj: object) -> None:
+    """What the registry takes: a CompassMethod subclass whose ``name`` is its entry's name."""
+    if not (isinstance(obj, type) and issubclass(obj, CompassMethod)):
+        raise ValueError(f"compass method {name!r}: {obj!r} is not a CompassMethod subclass")
+    if not obj.name:
+        obj.name = name  # a plug-in's class may leave its name to its entry point
+    elif obj.name != name:
+        raise ValueError(
+            f"compass method {name!r}: its class {obj.__name__} is named {obj.name!r}; the "
+            "entry's name and the class's name must agree"
+        )
 
 
 def register(cls: type) -> type:
-    """Class decorator: add a compass method to the registry under ``cls.name``."""
+    """Class decorator: add a compass method at run time (a notebook's or a test's own).
+
+    The project's methods and installed plug-ins are declared in
+    :data:`twin.core.extensions.COMPASS_METHODS` instead (one declaration each).
+    """
     if not (isinstance(cls, type) and issubclass(cls, CompassMethod)):
         raise TypeError(f"{cls!r} must subclass CompassMethod")
     name = getattr(cls, "name", None)
     if not isinstance(name, str) or not name:
         raise TypeError(f"{cls!r} needs a class attribute 'name'")
-    if name in _REGISTRY and _REGISTRY[name] is not cls:
-        raise ValueError(f"compass method {name!r} is already registered")
-    _REGISTRY[name] = cls
+    COMPASS_METHODS.add(name, cls)
     return cls
 
 
 def available() -> dict[str, type]:
-    """Registered methods by name (imports the built-in method modules first)."""
-    from twin.onboard import compass as _pkg
-
-    _pkg.load_builtins()
-    return dict(_REGISTRY)
+    """Every compass method by name (imports each one's module)."""
+    return {n: COMPASS_METHODS.load(n, _check_method) for n in COMPASS_METHODS.names()}
 
 
 def create(name: str, **kwargs: object) -> CompassMethod:
-    """A configured method by name; a clear error listing the allowed names."""
-    methods = available()
-    if name not in methods:
-        raise ValueError(f"compass method: {name!r} is unknown; allowed: {sorted(methods)}")
-    return methods[name](**kwargs)
+    """A configured method by name; a clear error listing the allowed names.
+
+    ``kwargs`` are the method's config fields (``Method(**overrides)``): the scenario's
+    ``[navigation.methods.<name>]`` table.
+    """
+    return COMPASS_METHODS.load(name, _check_method)(**kwargs)

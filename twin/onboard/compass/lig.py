@@ -78,7 +78,6 @@ from twin.onboard.compass.base import (
     Frame,
     finish_fix,
     no_fix,
-    register,
 )
 
 FloatArray = NDArray[np.float64]
@@ -424,7 +423,6 @@ def frame_prologue(frame: Frame, analysis_max_width_px: int) -> FramePrologue:
     return FramePrologue(frame.raw, frame.sun_enu, n_w, geo)
 
 
-@register
 class LigCompass(CompassMethod):
     """Light-intensity-gradient solar tracking (Hu et al. 2024, §2, eqs. 5–15)."""
 
@@ -625,7 +623,6 @@ LIG_PAPER = LigConfig(
 )
 
 
-@register
 class LigPaperCompass(LigCompass):
     """LIG exactly as Hu et al. (2024) write it (:data:`LIG_PAPER`); ``lig`` is the twin's."""
 

@@ -70,7 +70,6 @@ from twin.onboard.compass.base import (
     Frame,
     finish_fix,
     no_fix,
-    register,
 )
 from twin.onboard.lens import compensate_grid
 from twin.onboard.polarization import stokes_from_mosaic
@@ -696,21 +695,18 @@ class _Liang2020(CompassMethod):
         )
 
 
-@register
 class MoiCompass(_Liang2020):
     """Moment-of-inertia symmetry axis of the |AOPLM| image (liang2020 §2, eqs. 1–8)."""
 
     name = "moi"
 
 
-@register
 class PatzCompass(_Liang2020):
     """Polarization at the zenith (liang2020 §4, its refs. 23–28)."""
 
     name = "patz"
 
 
-@register
 class HoughCompass(_Liang2020):
     """Hough transform of the SM-ASM band (liang2020 §4, Lu et al. 2015)."""
 

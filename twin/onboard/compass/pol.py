@@ -57,7 +57,6 @@ from twin.onboard.compass.base import (
     Frame,
     finish_fix,
     no_fix,
-    register,
 )
 from twin.onboard.compass.lig import (
     AnalysisGeometry,
@@ -167,7 +166,6 @@ def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDAr
     return t_s, t_p
 
 
-@register
 class PolCompass(CompassMethod):
     """E-vector solar tracking with Snell + Fresnel compensation (LIG paper's ref. [22])."""
 
@@ -309,7 +307,6 @@ POL_PAPER = PolConfig(
 )
 
 
-@register
 class PolPaperCompass(PolCompass):
     """POL as the LIG paper describes it (:data:`POL_PAPER`); ``pol`` is the twin's."""
 

@@ -79,7 +79,6 @@ from twin.onboard.compass.base import (
     Frame,
     finish_fix,
     no_fix,
-    register,
 )
 from twin.onboard.compass.snell import (
     evectors_h,
@@ -228,7 +227,6 @@ def p_scattered(a_s: float, a_p: FloatArray, dphi: FloatArray) -> FloatArray:
     return np.arctan2(num, den)
 
 
-@register
 class RoiaMethod(CompassMethod):
     """ROI-A: attitude-adaptive zenith region, Fresnel to air, superposition, E-vector sun."""
 
@@ -399,7 +397,6 @@ class RoiaMethod(CompassMethod):
 ROIA_PAPER = RoiaConfig(region="printed", weighting="unit", iterations=0, min_dop=0.0)
 
 
-@register
 class RoiaPaperMethod(RoiaMethod):
     """ROI-A as Fang et al. (2024) print it (:data:`ROIA_PAPER`); ``roia`` is the twin's."""
 

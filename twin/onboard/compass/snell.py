@@ -100,7 +100,6 @@ from twin.onboard.compass.base import (
     Frame,
     finish_fix,
     no_fix,
-    register,
 )
 from twin.onboard.lens import compensate_grid
 from twin.onboard.polarization import PolarizationImage, stokes_from_mosaic
@@ -537,7 +536,6 @@ def robust_sinusoid(phi: FloatArray, y: FloatArray, floor: float) -> tuple[Float
     return c, int(np.count_nonzero(np.abs(r) < 4.685 * s))
 
 
-@register
 class SnellWindowMethod(CompassMethod):
     """Snell-window attitude (roll, pitch from the window centre) and Hough solar-meridian yaw."""
 
@@ -937,7 +935,6 @@ SNELL_PAPER = SnellConfig(
 )
 
 
-@register
 class SnellPaperMethod(SnellWindowMethod):
     """The Snell-window method as Xin et al. (2024) write it (:data:`SNELL_PAPER`)."""
 
