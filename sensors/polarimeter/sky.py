@@ -265,12 +265,6 @@ def cie_relative_radiance(dirs: ArrayLike, sun_dir: ArrayLike, cie_type: int) ->
     return cie_indicatrix(cos_chi, c, d, e) * cie_gradation(p[..., 2], a, b) / norm
 
 
-def rayleigh_dop(cos_gamma: ArrayLike, dop_max: float = 1.0) -> FloatArray:
-    """Single-scattering Rayleigh DoP = DoP_max sin²γ / (1 + cos²γ) (MOI eq. 9, optics.md §1.1)."""
-    c2 = np.asarray(cos_gamma) ** 2
-    return dop_max * (1.0 - c2) / (1.0 + c2)
-
-
 @dataclass(frozen=True, slots=True)
 class BerryPoints:
     """Berry's four neutral points as ENU unit vectors (some may lie below the horizon)."""

@@ -515,30 +515,6 @@ def exp_into(x: FloatArray, out: FloatArray) -> FloatArray:
     return np.exp(x, out=out)
 
 
-def neg_expm1_into(x: FloatArray, out: FloatArray, tmp: FloatArray) -> FloatArray:
-    """Into ``out``: exp(−x) − 1 = −(1 − e^{−x}) for x ≥ 0, accurate also for small x.
-
-    In place allowed. e^{−x} − 1 by :func:`exp_into` (relative error ≤ 2.1e-7/x, fine for
-    x ≥ 0.01), and below 0.01 the series −x (1 − x/2 + x²/6) (error < x³/24 relative): ~10×
-    numpy's expm1 in float32. Float64 uses numpy's expm1.
-    """
-    if x.dtype != np.float32:
-        np.negative(x, out=out)
-        return np.expm1(out, out=out)
-    np.multiply(x, 1.0 / 6.0, out=tmp)
-    tmp -= 0.5
-    tmp *= x
-    tmp += 1.0
-    tmp *= x
-    np.negative(tmp, out=tmp)  # the series
-    small = x < 0.01
-    np.negative(x, out=out)
-    exp_into(out, out)
-    out -= 1.0
-    np.copyto(out, tmp, where=small)
-    return out
-
-
 def arccos_into(x: FloatArray, out: FloatArray, tmp: FloatArray) -> FloatArray:
     """Into ``out``: arccos(x) for x in [−1, 1]; float32: a polynomial, float64: numpy's.
 

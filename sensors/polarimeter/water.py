@@ -210,13 +210,6 @@ class WaterOptics:
         """Particulate scattering b − b_w."""
         return self.b_per_m - self.b_molecular_per_m
 
-    @property
-    def bb_per_m(self) -> float:
-        """Backscattering: half the molecular part plus B times the particulate part."""
-        return (
-            0.5 * self.b_molecular_per_m + self.particle_backscatter_ratio * self.b_particle_per_m
-        )
-
 
 def jerlov_water(
     water_type: str,
@@ -615,12 +608,6 @@ class WaterColumn:
         """Radiance L_ss of an unpolarized sun beam scattered once into each ray (module eq. 2)."""
         st0 = state._replace(beam_q=0.0)
         return self.render(look_dirs, st0, rotation=rotation, diffuse=False)[..., 0]
-
-    def diffuse_radiance(
-        self, look_dirs: ArrayLike, state: ColumnState, *, rotation: ArrayLike | None = None
-    ) -> FloatArray:
-        """Radiance of the rest of the scattered light (module eq. 3, the table)."""
-        return self.render(look_dirs, state, rotation=rotation, single=False)[..., 0]
 
 
 def _direct_block(

@@ -87,3 +87,19 @@ def test_keyframes_hold_their_state_under_the_twins_physics(key: str) -> None:
     assert t1.speed_through_water_mps == pytest.approx(t0.speed_through_water_mps, abs=0.015)
     assert t1.roll_rad == pytest.approx(t0.roll_rad, abs=np.radians(0.2))
     assert abs(t1.pitch_rad) < np.radians(0.5)
+
+
+def test_the_lags_that_act_are_the_vehicle_parameters_declared() -> None:
+    # MuJoCo integrates the fins' servo and the motor's lag (auv.xml's filterexact dynprm);
+    # VehicleParams declares them with their sources: the two must agree (and the travel too).
+    model = mujoco.MjModel.from_xml_path(str(AUV_DIR / "auv.xml"))
+
+    def act(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+
+    for fin in ("rudder", "stern_planes"):
+        assert model.actuator_dynprm[act(fin), 0] == pytest.approx(REMUS100.fin_time_constant_s)
+        assert model.actuator_ctrlrange[act(fin), 1] == pytest.approx(REMUS100.fin_max_rad, 1e-4)
+    prop = act("propeller")
+    assert model.actuator_dynprm[prop, 0] == pytest.approx(REMUS100.prop_time_constant_s)
+    assert model.actuator_ctrlrange[prop, 1] == pytest.approx(REMUS100.prop_max_rpm / 60, 1e-3)

@@ -54,7 +54,6 @@ from twin.campaign.stats import (
     long_table,
     paired_comparisons,
     variant_columns,
-    variants_of,
 )
 from twin.record.provenance import describe as describe_provenance
 from twin.record.provenance import provenance
@@ -64,7 +63,6 @@ __all__ = [
     "group_statistics",
     "long_table",
     "paired_comparisons",
-    "variants_of",
     "write_report",
 ]
 

@@ -127,11 +127,6 @@ def variant_columns(df: pd.DataFrame, metric: str) -> dict[str, str]:
     return out
 
 
-def variants_of(df: pd.DataFrame, metric: str) -> list[str]:
-    """Filter variants with a ``metric`` column (e.g. ``heading_rmse_deg``)."""
-    return sorted(variant_columns(df, metric))
-
-
 def long_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
     """One row per (run, variant): run_id, seed, the params, variant, value."""
     params = [c for c in df.columns if c.startswith("param.")]

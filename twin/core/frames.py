@@ -24,7 +24,6 @@ FloatArray = NDArray[np.float64]
 # Fossen f-frame axes expressed in the body b-frame: f = F_FROM_B @ b.
 # f.x (forward) = b.y, f.y (starboard) = b.x, f.z (down) = -b.z. det = +1: a proper rotation.
 F_FROM_B: FloatArray = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-B_FROM_F: FloatArray = F_FROM_B.T
 
 
 def wxyz_to_xyzw(q: FloatArray) -> FloatArray:
@@ -101,11 +100,6 @@ def dcm_to_euler(c: FloatArray) -> tuple[float, float, float]:
 def euler_to_quat(roll: float, pitch: float, yaw: float) -> FloatArray:
     """Quaternion (w, x, y, z) from (roll, pitch, yaw) in radians."""
     return dcm_to_quat(euler_to_dcm(roll, pitch, yaw))
-
-
-def quat_to_euler(q_wxyz: FloatArray) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) in radians from a quaternion (w, x, y, z)."""
-    return dcm_to_euler(quat_to_dcm(q_wxyz))
 
 
 def yaw_to_heading_deg(yaw: float) -> float:

@@ -49,6 +49,3 @@ class ActuatorCommand:
     rudder_rad: float = 0.0
     stern_rad: float = 0.0
     propeller_rps: float = 0.0
-
-    def as_array(self) -> np.ndarray:
-        return np.array([self.rudder_rad, self.stern_rad, self.propeller_rps])

@@ -55,10 +55,6 @@ class LegsMission:
         """The legs to fly (already explicit for this kind)."""
         return self.legs
 
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return tuple(leg.depth_m for leg in self.legs)
-
 
 @dataclass(frozen=True, slots=True)
 class LawnmowerMission:
@@ -106,10 +102,6 @@ class LawnmowerMission:
             for p in self.waypoints_m()
         )
 
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return (self.depth_m,)
-
 
 @dataclass(frozen=True, slots=True)
 class StationKeepingMission:
@@ -125,10 +117,6 @@ class StationKeepingMission:
     radius_m: float
     speed_mps: float
     acceptance_radius_m: float = 5.0
-
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return (self.depth_m,)
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,10 +144,6 @@ class PlannedMission:
     q_rate_m2_per_s: float = 100.0
     acceptance_radius_m: float = 5.0
     lookahead_m: float = 0.0
-
-    def commanded_depths_m(self) -> tuple[float, ...]:
-        """Every depth the mission commands."""
-        return (self.depth_m,)
 
     def legs_along(self, route_en_m: Sequence[Vec2]) -> LegsMission:
         """The route (ENU from the launch point, start first) as waypoint legs to the goal.

@@ -462,9 +462,6 @@ class Eskf:
             "not_static": 0,
         }
 
-    def _threshold(self, dof: int) -> float:
-        return chi2_threshold(self.config.gate_probability, dof)
-
     # --- time update ---------------------------------------------------------------------------
     @property
     def t(self) -> float:
@@ -476,13 +473,6 @@ class Eskf:
         Returns False when the sample was skipped (non-finite with ``on_nonfinite="skip"``).
         """
         if not self.ins.step(dt, angular_rate, specific_force):
-            return False
-        self._after_step(dt)
-        return True
-
-    def predict_increments(self, dt: float, dtheta: FloatArray, dvel: FloatArray) -> bool:
-        """One INS step with increments (rad, m/s, body)."""
-        if not self.ins.step_increments(dt, dtheta, dvel):
             return False
         self._after_step(dt)
         return True

@@ -516,33 +516,6 @@ class StrapdownIns:
         self._end_step(dt, _mul33(c_nav, _mul33(c, _rotvec_exp(*theta))))
 
     # --- corrections and output ----------------------------------------------------------------
-    def correct(
-        self,
-        phi: FloatArray,
-        dv: FloatArray,
-        dlat: float,
-        dlon: float,
-        dh: float,
-        dgyro_bias: FloatArray | None = None,
-        daccel_bias: FloatArray | None = None,
-    ) -> None:
-        """Remove estimated errors (estimate − truth) from the solution.
-
-        Under the φ convention C_est = (I − [φ×]) C_true ≈ exp(−[φ×]) C_true, the corrected
-        attitude is exp([φ×]) C_est; v ← v − δv; (L, λ, h) ← (L − δL, λ − δλ, h − δh). Bias
-        corrections are *added* to the bias estimates (the error state is the residual bias, true
-        minus estimated, :mod:`twin.onboard.eskf`).
-        """
-        zero = (0.0, 0.0, 0.0)
-        self.correct_floats(
-            _floats3("phi", phi),
-            _floats3("dv", dv),
-            float(dlat),
-            float(dlon),
-            float(dh),
-            zero if dgyro_bias is None else _floats3("dgyro_bias", dgyro_bias),
-            zero if daccel_bias is None else _floats3("daccel_bias", daccel_bias),
-        )
 
     @property
     def standard_gravity(self) -> bool:

@@ -186,12 +186,6 @@ def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
     return out
 
 
-def _bare_gravimeter(scenario: Scenario) -> sensors.Sensor:
-    """The gravimeter without its field (the field's problems are check_gravity's)."""
-    s = scenario.sensors
-    return make_sensor("gravimeter", s.gravimeter or "", s.gravimeter_overrides)
-
-
 def gravimeter_sensor(scenario: Scenario) -> sensors.Sensor:
     """The scenario's gravimeter, reading the world's anomaly field (``gravity_area``)."""
     s = scenario.sensors

@@ -69,6 +69,7 @@ class VehicleParams:
     fin_x_m: float = -0.8
     fin_max_rad: float = math.radians(15.0)  # vehicle-and-peers.md §3.1 (older remus100: 15 deg)
     fin_rate_max_rad_s: float = math.radians(60.0)  # assumption: a typical AUV fin servo, 60 deg/s
+    # The lags act in auv.xml (filterexact dynprm); tests/models/test_models.py ties them here.
     fin_time_constant_s: float = 0.1  # vehicle-and-peers.md §3.1 (newer remus100.py: 1.0 s)
     # Propeller (Allen et al. 2000; Wageningen B3-0.718 fit in Fossen's remus100).
     prop_diameter_m: float = 0.14
@@ -168,10 +169,6 @@ class VehicleParams:
         return np.array([m, m, m, ix + m * zg * zg, iy + m * zg * zg, iz])
 
     @property
-    def weight_n_design(self) -> float:
-        return self.mass_kg * 9.81
-
-    @property
     def hull_reference_area_m2(self) -> float:
         """S = 0.7 L D (Fossen: 70 % of the rectangle L x D)."""
         return 0.7 * self.length_m * self.diameter_m
@@ -201,12 +198,6 @@ class VehicleParams:
                 m_total[5] / self.t_yaw_s,
             ]
         )
-
-    def righting_period_s(self, axis: str = "roll", g: float = 9.81) -> float:
-        """Undamped small-angle period of the CB-CG pendulum, 2 pi sqrt(I_total / (W z_g))."""
-        m_total = self.rigid_mass_matrix_diag_f + self.added_mass_f
-        i = m_total[3] if axis == "roll" else m_total[4]
-        return 2 * math.pi * math.sqrt(i / (self.mass_kg * g * self.cg_below_cb_m))
 
 
 REMUS100 = VehicleParams()
