@@ -66,7 +66,7 @@ import json, sys, time
 t0 = time.perf_counter()
 import dataclasses
 import scenarios
-from twin.app.simulation import build_simulation
+from twin.sim.build import build_simulation
 imports = time.perf_counter() - t0
 sc = dataclasses.replace(scenarios.load("default"), duration_s=float(sys.argv[1]))
 runs = []

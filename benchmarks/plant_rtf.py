@@ -20,8 +20,8 @@ from pathlib import Path
 
 import scenarios
 from twin.app.run import run_scenario
-from twin.app.simulation import build_simulation
 from twin.core.messages import ActuatorCommand
+from twin.sim.build import build_simulation
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MISSION_S = 600.0

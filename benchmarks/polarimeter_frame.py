@@ -32,8 +32,8 @@ import numpy as np
 import scenarios
 import sensors
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
-from twin.app.simulation import build_simulation
 from twin.record import provenance as pv
+from twin.sim.build import build_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"

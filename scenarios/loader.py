@@ -1109,7 +1109,7 @@ def _method_params(
     """``[navigation.methods.<name>]``: each compass method's config fields, for a method run.
 
     The fields and their values are checked by building the method as a run does
-    (``twin.app.simulation.check_navigation``); here, the tables' shapes and names.
+    (``twin.sim.build.check_navigation``); here, the tables' shapes and names.
     """
     if t is None:
         return None
@@ -1320,7 +1320,7 @@ def _buildable_checks(scenario: Scenario, source: str) -> None:
     leaves no image, a compass rate above the camera's frame rate).
     """
     # Heavy (mujoco, the optics): only when needed.
-    from twin.app.simulation import check_navigation
+    from twin.sim.build import check_navigation
     from twin.world.assembly import check_sensors
 
     problems = check_sensors(scenario) + check_navigation(scenario)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from scenarios.schema import LegsMission, StationKeepingMission, WaypointLeg
-from twin.app.navsources import TruthNav
 from twin.core.messages import ActuatorCommand
 from twin.onboard.control.autopilot import Autopilot, NavState, Setpoint
 from twin.onboard.control.guidance import Guidance
+from twin.sim.navsources import TruthNav
 from twin.world.plant import Plant, PlantConfig
 
 

@@ -7,7 +7,11 @@ The folders are the rooms of the house (docs/architecture.md):
 * ``twin/onboard``: the vehicle computer. It imports only ``twin.onboard`` and ``twin.core``.
 * ``twin/world`` and ``sensors``: the world (truth). They never import the vehicle computer, the
   scorer, the recorder or the app.
-* ``twin/scoring``, ``twin/record``, ``twin/app``: see both sides.
+* ``twin/sim``: the stepping core and the vehicle's build; sees both sides, never the
+  scorer, the recorder or the front doors.
+* ``twin/scoring``, ``twin/record``: see both sides and the stepping core, never the front doors
+  (``twin/app``) or the campaigns.
+* ``twin/app``, ``twin/campaign``: the front doors, on top.
 """
 
 from __future__ import annotations
@@ -55,8 +59,22 @@ def _violations(folder: Path, allowed: tuple[str, ...]) -> list[str]:
         ("twin/core", ("twin.core",)),
         ("twin/world", ("twin.world", "twin.core", "models", "sensors", "scenarios.schema")),
         ("sensors", ("sensors", "twin.core")),
+        (
+            "twin/sim",
+            ("twin.sim", "twin.core", "twin.onboard", "twin.world", "sensors", "scenarios.schema"),
+        ),
+        (
+            "twin/scoring",
+            ("twin.scoring", "twin.sim", "twin.core", "twin.onboard", "twin.world", "sensors",
+             "scenarios.schema"),
+        ),
+        (
+            "twin/record",
+            ("twin.record", "twin.scoring", "twin.sim", "twin.core", "twin.onboard", "twin.world",
+             "sensors", "scenarios.schema"),
+        ),
     ],
-)
+)  # fmt: skip
 def test_each_room_imports_only_what_it_may(room: str, allowed: tuple[str, ...]) -> None:
     assert _violations(ROOT / room, allowed) == []
 

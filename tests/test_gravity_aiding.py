@@ -18,7 +18,6 @@ from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
 from sensors.gravimeter import GravimeterSpec
 from twin.app.cli import main
-from twin.app.simulation import build_simulation
 from twin.core import earth
 from twin.core.gravity_map import GravityGrid
 from twin.onboard.gravity.matching import (
@@ -26,6 +25,7 @@ from twin.onboard.gravity.matching import (
     correlation_distance_m,
     linearization_variance,
 )
+from twin.sim.build import build_simulation
 from twin.world.gravity_area import check_gravity, gravity_field
 
 BASE: dict = {

@@ -22,9 +22,9 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 import scenarios
-from twin.app.simulation import build_simulation
 from twin.record.mcap_log import B_FROM_FLU, McapLog
 from twin.scoring.observer import RunScorer
+from twin.sim.build import build_simulation
 
 EXPECTED_TYPES = {
     "/imu": "sensor_msgs/msg/Imu",

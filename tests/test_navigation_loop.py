@@ -12,10 +12,10 @@ from rrd_helpers import entities
 
 import scenarios
 from scenarios.schema import Navigation, WaypointLeg
-from twin.app.navsources import TruthNav
 from twin.app.run import run_scenario
-from twin.app.simulation import build_simulation
 from twin.onboard.control.navsource import EstimateNav
+from twin.sim.build import build_simulation
+from twin.sim.navsources import TruthNav
 
 
 def _short_trial(duration_s: float = 30.0, variants: tuple[str, ...] = ("ins", "lig")):

@@ -18,11 +18,11 @@ from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
 from sensors.imu import IMU_PRESETS
 from twin.app.cli import main
-from twin.app.simulation import _imu_grade, build_simulation
 from twin.core import earth
 from twin.onboard.alignment import AlignmentError, gyrocompass_sigma
 from twin.onboard.eskf import Eskf, EskfConfig
 from twin.onboard.ins import NavState
+from twin.sim.build import _imu_grade, build_simulation
 
 LAT = math.radians(37.54)
 DEG_PER_H = math.radians(1.0) / 3600.0

@@ -4,7 +4,7 @@ Actions are either autopilot setpoints (``control="setpoint"``: forward speed, d
 heading; the autopilot flies them on its navigation source) or raw actuator commands
 (``control="actuator"``: rudder, stern planes, propeller). Each ``step`` advances
 ``control_period_s`` of sim time through the stepping core
-(:meth:`twin.app.simulation.Simulation.step`). The episode is truncated at the scenario's duration.
+(:meth:`twin.sim.step.Simulation.step`). The episode is truncated at the scenario's duration.
 
 Observations, buffered as dm_control's composer observables are: a sensor that samples k > 1 times
 per control period (the 100 Hz IMU at a 0.1 s period: k = 10) is observed as its last k readings,
@@ -30,10 +30,11 @@ import numpy as np
 from dm_env import specs
 
 from scenarios.schema import Scenario
-from twin.app.simulation import Simulation, build_simulation
 from twin.app.tasks import AuvTask
 from twin.core.messages import ActuatorCommand, Reading
 from twin.onboard.control.autopilot import Setpoint
+from twin.sim.build import build_simulation
+from twin.sim.step import Simulation
 from twin.world.truth import Truth
 
 Control = Literal["setpoint", "actuator"]

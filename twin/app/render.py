@@ -76,9 +76,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     with held():  # the heavy imports: a Ctrl-C here is held, then raised
         from sensors.registry import sensor_class
         from twin.app.cli import writable_out
-        from twin.app.simulation import build_simulation
         from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
         from twin.onboard.polarization import stokes_from_mosaic
+        from twin.sim.build import build_simulation
         from twin.world.assembly import polarimeter_sensor
 
     try:

@@ -53,7 +53,6 @@ import pyarrow.parquet as pq
 from scenarios.loader import parse_scenario
 from scenarios.schema import Scenario
 from sensors.depth import depth_from_pressure
-from twin.app.simulation import navigator_config
 from twin.core.calibration import CameraCalibration, calibration_from_dict
 from twin.core.earth import principal_radii
 from twin.core.frames import dcm_to_euler, dcm_to_quat, quat_to_dcm, yaw_to_heading_deg
@@ -66,6 +65,7 @@ from twin.record.provenance import fingerprint, parquet_metadata, provenance
 from twin.record.recorder import Recorder, compact, default_blueprint, utc_ns
 from twin.record.timeseries import fix_row
 from twin.scoring.navigation import VariantScore
+from twin.sim.build import navigator_config
 from twin.world.assembly import make_sensor, optics_config
 from twin.world.truth import Truth
 

@@ -5,7 +5,7 @@ Outputs, in ``out_dir``:
   * ``metrics.json``: the summary. It is written as ``"status": "running"`` before the flight
     starts and rewritten at the end, so even a killed run leaves a file that says it is incomplete.
 
-The loop is the stepping core (:class:`twin.app.simulation.Simulation`) with two observers: the
+The loop is the stepping core (:class:`twin.sim.step.Simulation`) with two observers: the
 scorer (:class:`twin.scoring.observer.RunScorer`) and the recorder
 (:class:`twin.record.observer.RunRecorder`).
 
@@ -30,7 +30,6 @@ import mujoco
 import numpy as np
 
 from scenarios.schema import Scenario
-from twin.app.simulation import Simulation, build_simulation
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
 from twin.record.mcap_log import FILE as MCAP_FILE
 from twin.record.mcap_log import McapLog
@@ -40,6 +39,8 @@ from twin.record.recorder import Recorder, compact, default_blueprint
 from twin.record.timeseries import TimeSeriesWriter
 from twin.scoring.mission import format_summary, fusion_warnings, summarize
 from twin.scoring.observer import RunScorer
+from twin.sim.build import build_simulation
+from twin.sim.step import Simulation
 
 __all__ = ["format_summary", "prepare_output", "run_scenario"]
 

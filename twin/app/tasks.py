@@ -7,7 +7,7 @@ with dm_control's ``rewards.tolerance`` (1 inside the bounds, decaying over the 
 :meth:`~AuvTask.get_termination` ends an episode that failed (the vehicle broke the surface or
 touched the seabed: discount 0) or succeeded (discount 1).
 
-The "physics" argument of dm_control's interface is the :class:`~twin.app.simulation.Simulation`:
+The "physics" argument of dm_control's interface is the :class:`~twin.sim.step.Simulation`:
 rewards are computed from the world's truth, as in dm_control, while the policy's observations
 stay sensor readings (:class:`twin.app.env.AuvEnv`). Actions are the environment's
 (``control="setpoint"`` or ``"actuator"``), so :meth:`before_step` does nothing here.
@@ -25,7 +25,7 @@ from dm_control.utils import rewards
 from twin.core.frames import wrap_deg180
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation
+    from twin.sim.step import Simulation
 
 # The vehicle counts as surfaced above this depth (hull radius 0.095 m plus margin) and as on the
 # seabed within this height of it.

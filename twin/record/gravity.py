@@ -22,9 +22,9 @@ import rerun as rr
 from twin.onboard.gravity.pcrb import information_map
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation
     from twin.core.gravity_map import GravityGrid
     from twin.record.recorder import Recorder
+    from twin.sim.step import Simulation
     from twin.world.truth import Truth
 
 MAP_ENTITY = "/gravity/map"

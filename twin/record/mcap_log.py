@@ -51,8 +51,8 @@ from twin.core.frames import dcm_to_quat, quat_to_dcm
 from twin.record.recorder import utc_ns
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation, StepResult
     from twin.scoring.observer import RunScorer
+    from twin.sim.step import Simulation, StepResult
 
 FILE = "run.mcap"
 

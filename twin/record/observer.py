@@ -1,6 +1,6 @@
 """The recording as an observer of the stepping core: what a run writes to Rerun, step by step.
 
-:class:`RunRecorder` hangs off :class:`twin.app.simulation.Simulation` (``sim.observers``): each
+:class:`RunRecorder` hangs off :class:`twin.sim.step.Simulation` (``sim.observers``): each
 step it logs the readings delivered (the polarimeter's images as onboard code derives them, with
 the true sun drawn from the truth that travelled with the frame), the compass events, the truth and
 every filter variant's errors at the truth rate (from the scorer), and the chase camera.
@@ -26,8 +26,8 @@ from twin.record.gravity import log_gravity_sample, log_gravity_scene
 from twin.record.recorder import Recorder
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation, StepResult
     from twin.scoring.observer import RunScorer
+    from twin.sim.step import Simulation, StepResult
     from twin.world.truth import Truth
 
 

@@ -35,8 +35,8 @@ import pyarrow.parquet as pq
 from twin.record.provenance import parquet_metadata
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation, StepResult
     from twin.scoring.observer import RunScorer
+    from twin.sim.step import Simulation, StepResult
 
 #: A channel wider than this (an image) is not a time-series column.
 MAX_CHANNEL_WIDTH = 16

@@ -33,7 +33,7 @@ from twin.onboard.gravity.pcrb import GainsModel, pcrb_along, rmse_bound_m
 from twin.world.gravity_area import field_at_stored_spacing, gravity_field
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation
+    from twin.sim.step import Simulation
     from twin.world.truth import Truth
 
 #: The planner's default Q_t (per axis), for missions that do not declare one.

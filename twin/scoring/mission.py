@@ -18,8 +18,8 @@ from twin.onboard.control.autopilot import Setpoint
 from twin.onboard.control.guidance import GuidanceStatus
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation
     from twin.scoring.observer import RunScorer
+    from twin.sim.step import Simulation
 
 # Tracking counts as "steady" this long after a leg switch (a 90 deg REMUS turn takes ~40 s).
 SETTLE_S = 45.0

@@ -3,7 +3,7 @@
 Truth is sampled at the truth rate; every filter variant and every compass fix is scored.
 
 World side (it sees truth). :class:`RunScorer` hangs off
-:class:`twin.app.simulation.Simulation` (``sim.observers``); the recorder reads its last samples.
+:class:`twin.sim.step.Simulation` (``sim.observers``); the recorder reads its last samples.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from twin.scoring.navigation import FixScore, VariantScore
 from twin.world.truth import Truth
 
 if TYPE_CHECKING:
-    from twin.app.simulation import Simulation, StepResult
+    from twin.sim.step import Simulation, StepResult
 
 
 class RunScorer:

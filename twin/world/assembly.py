@@ -1,6 +1,6 @@
 """The world of a scenario: plant, current and sensors, assembled from the scenario's settings.
 
-World side only: nothing here knows the vehicle computer. :mod:`twin.app.simulation` adds the
+World side only: nothing here knows the vehicle computer. :mod:`twin.sim.build` adds the
 onboard side (filters, guidance, autopilot) and steps both. The scenario loader calls
 :func:`check_sensors` so that ``auv-twin validate`` builds every sensor exactly as a run does.
 """

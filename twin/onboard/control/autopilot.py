@@ -1,7 +1,7 @@
 """Autopilot: speed, depth and heading hold, steering on a navigation source.
 
 The autopilot takes its attitude, depth and speed from a :class:`NavSource`: truth
-(``twin.app.navsources.TruthNav``) or an onboard filter's estimate (``EstimateNav``, scenario
+(``twin.sim.navsources.TruthNav``) or an onboard filter's estimate (``EstimateNav``, scenario
 setting ``autopilot.attitude_source = "estimate"``): the autopilot code does not change, only
 the source.
 

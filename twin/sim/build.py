@@ -1,14 +1,8 @@
-"""The stepping core: one scenario's world and vehicle computer, stepped together.
+"""The vehicle's build: one scenario and one seed → a :class:`~twin.sim.step.Simulation`.
 
 :func:`build_simulation` assembles the world (:mod:`twin.world.assembly`: plant, current,
-sensors) and the vehicle computer (onboard filter variants, guidance, autopilot) from one scenario
-and one seed. :meth:`Simulation.step` is the one place a step happens: physics under a command,
-the sensors that are due, their readings delivered to every filter variant; it returns a
-:class:`StepResult` (readings, compass events, the truth the sensors recorded with their readings)
-and hands it to the observers (the recorder and the scorer hang off it, in the pattern of
-dm_control's ``rl/control.py``). The CLI run (:mod:`twin.app.run`), the dm_env environment
-(:mod:`twin.app.env`) and offline flights (:meth:`Simulation.fly`) all step through it, so they
-simulate exactly the same thing for the same scenario and seed.
+sensors) and the vehicle computer (onboard filter variants, guidance, autopilot); the build checks
+(:func:`check_navigation`) are what ``validate`` shares with ``run``.
 """
 
 from __future__ import annotations
@@ -16,22 +10,19 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from scenarios.schema import Navigation, Scenario
 from sensors.suite import SensorSuite
-from twin.app.navsources import TruthNav
 from twin.core.earth import principal_radii
 from twin.core.frames import quat_to_dcm
-from twin.core.messages import ActuatorCommand, Reading
 from twin.core.mission import PlannedMission
 from twin.onboard import compass
 from twin.onboard.alignment import AlignmentError, gyrocompass_sigma
-from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap, Setpoint
-from twin.onboard.control.guidance import Guidance, GuidanceStatus
+from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap
+from twin.onboard.control.guidance import Guidance
 from twin.onboard.control.navsource import EstimateNav
 from twin.onboard.eskf import EskfConfig, ImuGrade
 from twin.onboard.gravity.matching import StoredMap
@@ -39,7 +30,9 @@ from twin.onboard.gravity.pcrb import GainsModel
 from twin.onboard.gravity.planner import PlannedPath, plan
 from twin.onboard.ins import InsConfig, rotvec_to_dcm
 from twin.onboard.ins import NavState as InsNavState
-from twin.onboard.navigator import CompassEvent, Navigator, NavigatorConfig, VehicleKnowledge
+from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
+from twin.sim.navsources import TruthNav
+from twin.sim.step import Simulation
 from twin.world.assembly import (
     build_current,
     build_plant,
@@ -56,109 +49,6 @@ from twin.world.vehicle import VehicleParams
 # the same when a new stochastic component is added.
 SEED_SENSORS, SEED_CURRENT, SEED_NAV, SEED_MAP = 0, 1, 2, 3
 _N_SEED_CHILDREN = 4
-
-
-@dataclass(frozen=True, slots=True)
-class StepResult:
-    """What one step produced.
-
-    Attributes:
-        t: Sim time after the step.
-        readings: Sensor readings delivered during the step, in delivery order.
-        truth: For each reading (same order), the truth its sensor recorded with it (the
-            polarimeter's truth layers), or None. Truth channel: scoring and recording only.
-        events: Frames the filter variants' compass methods processed, as (variant, event).
-    """
-
-    t: float
-    readings: list[Reading]
-    truth: list[object]
-    events: list[tuple[str, CompassEvent]]
-
-
-class Observer(Protocol):
-    """Something that watches the simulation step (the recorder, a scorer)."""
-
-    def on_step(self, sim: Simulation, result: StepResult) -> None: ...
-
-
-@dataclass
-class Simulation:
-    """Everything a run steps, built from one scenario and one seed."""
-
-    scenario: Scenario
-    seed: int
-    plant: Plant
-    suite: SensorSuite
-    guidance: Guidance
-    autopilot: Autopilot
-    nav: NavSource
-    navigators: dict[str, Navigator] = field(default_factory=dict)
-    observers: list[Observer] = field(default_factory=list)
-    # The vehicle's stored gravity map and, for a planned mission, the route it planned on it.
-    stored_map: StoredMap | None = None
-    route: PlannedPath | None = None
-    # The last setpoint and guidance status of :meth:`control` (for the recorder and the scorer).
-    setpoint: Setpoint = field(default_factory=lambda: Setpoint(0.0, 0.0, 0.0))
-    status: GuidanceStatus = field(default_factory=lambda: GuidanceStatus(0, 0, False, 0.0))
-
-    @property
-    def physics_dt(self) -> float:
-        return float(self.plant.model.opt.timestep)
-
-    @property
-    def autopilot_every(self) -> int:
-        """Physics steps per autopilot update."""
-        return max(1, round(1.0 / (self.scenario.autopilot.rate_hz * self.physics_dt)))
-
-    def deliver(self, readings: list[Reading]) -> list[tuple[str, CompassEvent]]:
-        """Hand sensor readings (in delivery order) to every onboard filter variant.
-
-        Returns the frames the variants' compass methods processed, as (variant, event).
-        """
-        events = []
-        for name, nav in self.navigators.items():
-            for r in readings:
-                event = nav.on_reading(r)
-                if event is not None:
-                    events.append((name, event))
-        return events
-
-    def control(self) -> ActuatorCommand:
-        """The vehicle computer's command now: guidance's setpoint, then the autopilot.
-
-        Call once per autopilot period (:attr:`autopilot_every` physics steps).
-        """
-        nav = self.nav.nav_state()
-        self.setpoint, self.status = self.guidance.update(nav, self.plant.t)
-        return self.autopilot.update(nav, self.setpoint, self.autopilot_every * self.physics_dt)
-
-    def step(self, command: ActuatorCommand) -> StepResult:
-        """Step physics under ``command``; sensors sampled, readings delivered, observers told."""
-        self.plant.step(command)
-        pairs = self.suite.poll_with_truth(self.plant)
-        readings = [r for r, _ in pairs]
-        events = self.deliver(readings) if self.navigators and readings else []
-        result = StepResult(self.plant.t, readings, [x for _, x in pairs], events)
-        for obs in self.observers:
-            obs.on_step(self, result)
-        return result
-
-    def fly(self, until_s: float) -> None:
-        """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.
-
-        Observers see every step; with none attached nothing is recorded (``auv-twin render``
-        flies somewhere this way).
-        """
-        dt = self.physics_dt
-        every = self.autopilot_every
-        cmd = None
-        k = 0
-        while self.plant.t < until_s - 0.5 * dt:
-            if cmd is None or k % every == 0:
-                cmd = self.control()
-            self.step(cmd)
-            k += 1
 
 
 def propeller_map(sim_plant: Plant) -> PropellerMap:

@@ -1,0 +1,1 @@
+"""The stepping core and the vehicle's build (between the world and the front doors)."""
