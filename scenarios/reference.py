@@ -1,0 +1,219 @@
+"""The scenario field reference, generated from the loader itself: ``docs/scenario-reference.md``.
+
+Every field a scenario file may hold, as :func:`scenarios.loader.parse_scenario` reads it: its
+dotted path, what it accepts (type, range or choices: the loader's own words, the ones its error
+messages use), its default (or that it is required), its unit (from the name's suffix) and, where
+the schema's dataclass documents it, what it means. The loader is run on every shipped scenario
+and on variants that select each kind of current, mission and gravity map, with its field getter
+watched; nothing is typed twice, so the reference cannot drift from what ``validate`` enforces
+(``tests/scenarios/test_reference.py`` checks the committed file is current).
+
+    python -m scenarios.reference            # writes docs/scenario-reference.md
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import re
+import sys
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import scenarios
+from scenarios import loader, schema
+from twin.core.extensions import COMPASS_METHODS
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "scenario-reference.md"
+
+#: Units from a field name's suffix (the project's naming rule: a unit in every name).
+UNITS: tuple[tuple[str, str], ...] = (
+    ("_kg_m3", "kg/m³"),
+    ("_mps", "m/s"),
+    ("_rad_s", "rad/s"),
+    ("_deg", "°"),
+    ("_rad", "rad"),
+    ("_hz", "Hz"),
+    ("_ms", "ms"),
+    ("_us", "µs"),
+    ("_px", "px"),
+    ("_psu", "PSU"),
+    ("_mgal", "mGal"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_c", "°C"),
+)
+
+#: The schema's dataclass behind each top-level table (for the fields' descriptions).
+SECTIONS: Mapping[str, type] = {
+    "place": schema.Place,
+    "water": schema.Water,
+    "current": schema.Current,
+    "initial": schema.Initial,
+    "sensors": schema.Sensors,
+    "optics": schema.Optics,
+    "gravity": schema.Gravity,
+    "hardware": schema.Hardware,
+    "navigation": schema.Navigation,
+    "autopilot": schema.Autopilot,
+    "recording": schema.Recording,
+}
+
+
+@dataclasses.dataclass
+class Field:
+    """One field as the loader reads it."""
+
+    path: str
+    expected: str
+    default: Any  # loader._MISSING: required
+
+
+def _normalise(path: str) -> str:
+    return re.sub(r"\[\d+\]", "[]", path)
+
+
+@contextmanager
+def _watch() -> Iterator[dict[str, Field]]:
+    """Every field the loader asks for, by normalised path, while the block runs."""
+    seen: dict[str, Field] = {}
+    original = loader._Table._raw
+
+    def raw(self: loader._Table, key: str, default: Any, expected: str) -> Any:
+        path = _normalise(self.at(key))
+        seen.setdefault(path, Field(path, expected, default))
+        return original(self, key, default, expected)
+
+    # The project's own names only: an installed plug-in's would make the page the machine's.
+    saved = (COMPASS_METHODS._plugins, dict(COMPASS_METHODS._added))
+    COMPASS_METHODS._plugins, COMPASS_METHODS._added = {}, {}
+    loader._Table._raw = raw  # type: ignore[method-assign]
+    try:
+        yield seen
+    finally:
+        loader._Table._raw = original  # type: ignore[method-assign]
+        COMPASS_METHODS._plugins, COMPASS_METHODS._added = saved
+
+
+def _variants() -> Iterator[dict[str, Any]]:
+    """Scenario documents that between them select every kind the loader branches on."""
+    for path in scenarios.shipped().values():
+        yield scenarios.load(path).to_dict()
+    base = scenarios.load("default").to_dict()
+    for kind in ("none", "constant", "profile", "gauss_markov"):
+        doc = copy.deepcopy(base)
+        doc["current"] = {"kind": kind}
+        if kind == "profile":
+            doc["current"]["profile"] = [
+                {"depth_m": d, "speed_mps": 0.1, "toward_deg": 0.0} for d in (0.0, 10.0)
+            ]
+        yield doc
+    for kind in schema.MISSION_KINDS:
+        doc = copy.deepcopy(base)
+        doc["mission"] = {"kind": kind}
+        yield doc
+    for kind in schema.GRAVITY_MAPS:
+        doc = copy.deepcopy(base)
+        doc["gravity"] = {"map": kind}
+        yield doc
+
+
+def collect() -> dict[str, Field]:
+    """Every field of every kind, in the loader's reading order."""
+    with _watch() as seen:
+        for doc in _variants():
+            try:
+                loader.parse_scenario(doc, "<reference>")
+            except loader.ScenarioError:
+                pass  # a variant missing its kind's fields still shows them being read
+    return seen
+
+
+def _attribute_docs(cls: type) -> dict[str, str]:
+    """``Attributes:`` entries of a Google-style class docstring, name → one-line text."""
+    doc = cls.__doc__ or ""
+    if "Attributes:" not in doc:
+        return {}
+    body = doc.split("Attributes:", 1)[1]
+    out: dict[str, str] = {}
+    name = None
+    for line in body.splitlines():
+        m = re.match(r"^\s{4,8}(\w+): (.*)$", line)
+        if m and len(line) - len(line.lstrip()) <= 8:
+            name = m.group(1)
+            out[name] = m.group(2).strip()
+        elif name and line.strip():
+            out[name] += " " + line.strip()
+        elif not line.strip():
+            name = None
+    return out
+
+
+def _plain_rst(text: str) -> str:
+    """The roles and literals of a reStructuredText docstring as Markdown code spans."""
+    text = re.sub(r":\w+:`~?([^`]+)`", r"`\1`", text)
+    return text.replace("``", "`")
+
+
+def _unit(name: str) -> str:
+    return next((u for suffix, u in UNITS if name.endswith(suffix)), "")
+
+
+def _default(f: Field) -> str:
+    if f.default is loader._MISSING:
+        return "required"
+    value = getattr(f.default, "value", f.default)
+    if type(value) is object:  # a sentinel: the loader decides (the field's meaning says how)
+        return "derived"
+    if value in ("", None, [], {}):
+        return "—"
+    return f"`{value!r}`" if not isinstance(value, str) else f'`"{value}"`'
+
+
+def markdown() -> str:
+    """The reference page."""
+    fields = collect()
+    docs = {top: _attribute_docs(cls) for top, cls in SECTIONS.items()}
+    lines = [
+        "# Scenario field reference",
+        "",
+        "Generated by `python -m scenarios.reference` from the loader itself (never edited: a",
+        "test checks it is current). Every field a scenario file may hold, with what `validate`",
+        "accepts, its default and unit; `[]` marks an array of tables. Kinds select their own",
+        "fields (a current's `speed_mps` is read for `constant`, not for `none`). Examples of",
+        "whole tables: [scenarios.md](scenarios.md); the shipped scenarios: `scenarios/*.toml`.",
+        "Compass variants are the project's own; an installed plug-in adds its name",
+        "([extending.md](extending.md)).",
+        "",
+        "Free-form tables, not listed field by field: `sensors.*_overrides` (a preset's spec",
+        "fields), `navigation.methods.<name>` (a compass method's config fields,",
+        "[extending.md](extending.md)).",
+        "",
+    ]
+    groups: dict[str, list[Field]] = {}
+    for path, f in fields.items():
+        groups.setdefault(path.split(".", 1)[0] if "." in path or path in SECTIONS else "", [])
+        groups[path.split(".", 1)[0] if "." in path or path in SECTIONS else ""].append(f)
+    for top, group in groups.items():
+        lines += ["", f"## `[{top}]`" if top else "## Top level", ""]
+        lines += ["| field | accepts | default | unit | meaning |", "|---|---|---|---|---|"]
+        for f in group:
+            leaf = f.path.rsplit(".", 1)[-1]
+            meaning = _plain_rst(docs.get(top, {}).get(leaf, "")).replace("|", "\\|")
+            accepts = f.expected.replace("|", "\\|")
+            lines.append(f"| `{f.path}` | {accepts} | {_default(f)} | {_unit(leaf)} | {meaning} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    text = markdown()
+    OUT.write_text(text)
+    print(f"wrote {OUT.relative_to(ROOT)} ({text.count(chr(10))} lines)", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
