@@ -2,12 +2,60 @@
 
 from __future__ import annotations
 
+import datetime as dt
+import json
+from pathlib import Path
+
+import jsonschema
+import pytest
+
+import scenarios
 from scenarios import reference
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _json(value):
+    # A TOML document as JSON sees it (an editor's language server converts the same way).
+    if isinstance(value, dict):
+        return {k: _json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json(v) for v in value]
+    return value.isoformat() if isinstance(value, dt.datetime) else value
 
 
 def test_the_committed_reference_is_what_the_loader_generates() -> None:
     # Regenerate with `python -m scenarios.reference` after changing a field.
     assert reference.OUT.read_text() == reference.markdown()
+    assert json.loads(reference.SCHEMA_OUT.read_text()) == json.loads(
+        json.dumps(reference.json_schema(), default=str)
+    )
+
+
+@pytest.mark.parametrize(
+    "path",
+    [*scenarios.shipped().values(), ROOT / "examples/compass_plugin/sun_spot_trial.toml"],
+    ids=lambda p: Path(p).stem,
+)
+def test_the_json_schema_accepts_every_shipped_scenario(path) -> None:
+    import tomllib
+
+    schema = json.loads(reference.SCHEMA_OUT.read_text())
+    jsonschema.validate(_json(tomllib.loads(Path(path).read_text())), schema)
+
+
+def test_the_json_schema_refuses_what_the_loader_refuses() -> None:
+    import tomllib
+
+    schema = json.loads(reference.SCHEMA_OUT.read_text())
+    doc = _json(tomllib.loads(scenarios.shipped()["default"].read_text()))
+    for bad in (
+        {"place": {**doc["place"], "latitude_deg": 95.0}},  # out of range
+        {"water": {**doc["water"], "jerlov_type": "XI"}},  # not a choice
+        {"navigation": {**doc["navigation"], "variant": ["ins"]}},  # an unknown key
+    ):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate({**doc, **bad}, schema)
 
 
 def test_the_reference_lists_each_kinds_fields_with_the_loaders_ranges() -> None:
