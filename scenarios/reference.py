@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import scenarios
-from scenarios import loader, schema
+from scenarios import loader, reading, schema
 from twin.core.extensions import COMPASS_METHODS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,11 +77,11 @@ class Field:
 
     path: str
     expected: str
-    default: Any  # loader._MISSING: required
+    default: Any  # reading._MISSING: required
     json: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
-def _range_schema(kind: str, allowed: loader.Range) -> dict[str, Any]:
+def _range_schema(kind: str, allowed: reading.Range) -> dict[str, Any]:
     out: dict[str, Any] = {"type": kind}
     if allowed.lo is not None:
         out["exclusiveMinimum" if allowed.lo_open else "minimum"] = allowed.lo
@@ -117,9 +117,9 @@ _TYPED: Mapping[str, Any] = {
 def _watch() -> Iterator[dict[str, Field]]:
     """Every field the loader asks for, by normalised path, while the block runs."""
     seen: dict[str, Field] = {}
-    original = loader._Table._raw
+    original = reading._Table._raw
 
-    def raw(self: loader._Table, key: str, default: Any, expected: str) -> Any:
+    def raw(self: reading._Table, key: str, default: Any, expected: str) -> Any:
         path = _normalise(self.at(key))
         seen.setdefault(path, Field(path, expected, default))
         return original(self, key, default, expected)
@@ -127,10 +127,10 @@ def _watch() -> Iterator[dict[str, Field]]:
     # The project's own names only: an installed plug-in's would make the page the machine's.
     saved = (COMPASS_METHODS._plugins, dict(COMPASS_METHODS._added))
     COMPASS_METHODS._plugins, COMPASS_METHODS._added = {}, {}
-    typed = {name: getattr(loader._Table, name) for name in _TYPED}
+    typed = {name: getattr(reading._Table, name) for name in _TYPED}
 
     def wrap(name: str) -> Any:
-        def getter(self: loader._Table, key: str, *args: Any, **kwargs: Any) -> Any:
+        def getter(self: reading._Table, key: str, *args: Any, **kwargs: Any) -> Any:
             out = typed[name](self, key, *args, **kwargs)
             field = seen.get(_normalise(self.at(key)))
             if field is not None and not field.json:
@@ -139,15 +139,15 @@ def _watch() -> Iterator[dict[str, Field]]:
 
         return getter
 
-    loader._Table._raw = raw  # type: ignore[method-assign]
+    reading._Table._raw = raw  # type: ignore[method-assign]
     for name in _TYPED:
-        setattr(loader._Table, name, wrap(name))
+        setattr(reading._Table, name, wrap(name))
     try:
         yield seen
     finally:
-        loader._Table._raw = original  # type: ignore[method-assign]
+        reading._Table._raw = original  # type: ignore[method-assign]
         for name, fn in typed.items():
-            setattr(loader._Table, name, fn)
+            setattr(reading._Table, name, fn)
         COMPASS_METHODS._plugins, COMPASS_METHODS._added = saved
 
 
@@ -216,7 +216,7 @@ def _unit(name: str) -> str:
 
 
 def _default(f: Field) -> str:
-    if f.default is loader._MISSING:
+    if f.default is reading._MISSING:
         return "required"
     value = getattr(f.default, "value", f.default)
     if type(value) is object:  # a sentinel: the loader decides (the field's meaning says how)
@@ -304,9 +304,9 @@ def json_schema() -> dict[str, Any]:
         text = _plain_rst(docs.get(top, {}).get(leaf, "")) or f.expected
         entry.setdefault("description", text)
         default = getattr(f.default, "value", f.default)
-        if f.default is not loader._MISSING and type(default) is not object:
+        if f.default is not reading._MISSING and type(default) is not object:
             entry.setdefault("default", default)
-        if f.default is loader._MISSING and len(parts) == 1:
+        if f.default is reading._MISSING and len(parts) == 1:
             root.setdefault("required", []).append(leaf)
     free = [root["properties"]["navigation"]["properties"].get("methods", {})]
     free += [v for k, v in root["properties"]["sensors"]["properties"].items()

@@ -61,7 +61,7 @@ def test_the_json_schema_refuses_what_the_loader_refuses() -> None:
 def test_the_reference_lists_each_kinds_fields_with_the_loaders_ranges() -> None:
     fields = reference.collect()
     assert fields["place.latitude_deg"].expected == "a number in (-90, 90)"
-    assert fields["place.latitude_deg"].default is reference.loader._MISSING
+    assert fields["place.latitude_deg"].default is reference.reading._MISSING
     # Fields read only for one kind of current, mission or gravity map are there too.
     for path in ("current.sigma_mps", "current.profile[].depth_m", "mission.legs[].to_m"):
         assert path in fields, path
