@@ -22,6 +22,11 @@ from typing import Any, Literal, TypeAlias
 
 # The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
 # defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
+# The allowed values their owners declare (the loader checks against them; re-exported).
+from sensors.polarimeter.bubbles import BUBBLE_MODELS as BUBBLE_MODELS
+from sensors.polarimeter.caustics import FLICKER_MODELS as FLICKER_MODELS
+from sensors.polarimeter.lens import LENS_MODELS as LENS_MODELS
+from sensors.polarimeter.particles import PARTICLE_MODELS as PARTICLE_MODELS
 from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 from twin.core.extensions import COMPASS_METHODS, INS_ONLY
 from twin.core.mission import (
@@ -56,7 +61,9 @@ SceneName: TypeAlias = Literal["open_sea", "tank"]
 SCENES: tuple[str, ...] = ("open_sea", "tank")
 
 JerlovType: TypeAlias = Literal["I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"]
-# Jerlov (1976): open-ocean types I..III, coastal types 1C..9C (increasingly turbid).
+# Jerlov (1976): open-ocean types I..III, coastal types 1C..9C (increasingly turbid). The owner is
+# sensors.polarimeter.water.JERLOV_TYPES (its table's keys), too heavy an import for the schema:
+# tests/scenarios/test_schema.py ties the two.
 JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
 
 CurrentKind: TypeAlias = Literal["none", "constant", "profile", "gauss_markov"]
@@ -217,10 +224,8 @@ class Sensors:
     gravimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
 
 
+# sensors.polarimeter.sky.POLARIZATIONS (a heavy import for the schema: tied by a test instead).
 SKY_POLARIZATION_MODELS: tuple[str, ...] = ("rayleigh", "berry")
-BUBBLE_MODELS: tuple[str, ...] = ("hall_novarini", "ideal")  # sensors.polarimeter.bubbles
-FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")  # sensors.polarimeter.caustics
-PARTICLE_MODELS: tuple[str, ...] = ("marine_snow", "ideal")  # sensors.polarimeter.particles
 
 
 @dataclass(frozen=True, slots=True)
@@ -319,7 +324,6 @@ class Gravity:
 
 CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")
 MOUNTING_MODELS: tuple[str, ...] = ("bracket", "ideal")
-LENS_MODELS: tuple[str, ...] = ("fresnel", "ideal")
 
 
 @dataclass(frozen=True, slots=True)

@@ -104,6 +104,8 @@ from sensors.polarimeter.surface import arccos_into, exp_into, is_rotation
 FloatArray = NDArray[np.floating]
 
 Polarization = Literal["rayleigh", "berry"]
+#: The polarization models (the scenario's ``optics.sky_polarization``).
+POLARIZATIONS: tuple[str, ...] = ("rayleigh", "berry")
 
 #: CIE standard general sky types: type -> (a, b, c, d, e, description). CIE S 011/E:2003 Table 1
 #: (as reproduced in optics.md §1.5).
@@ -163,7 +165,7 @@ class SkySpec:
         """Validate every field; raise ValueError naming the field and its allowed range."""
         if isinstance(self.cie_type, bool) or self.cie_type not in CIE_SKY_TYPES:
             raise ValueError(f"SkySpec.cie_type must be an integer 1..15, got {self.cie_type!r}")
-        if self.polarization not in ("rayleigh", "berry"):
+        if self.polarization not in POLARIZATIONS:
             raise ValueError(
                 f"SkySpec.polarization must be 'rayleigh' or 'berry', got {self.polarization!r}"
             )

@@ -758,3 +758,15 @@ def test_the_wind_may_be_a_beaufort_force_but_not_both() -> None:
     d["optics"]["wind_speed_mps"] = 3.0
     with pytest.raises(ScenarioError, match=r"wind_beaufort.*wind_speed_mps"):
         parse_scenario(d)
+
+
+def test_each_value_list_the_schema_copies_equals_its_owners() -> None:
+    # The lists the schema imports are one declaration; the two it copies (their owners are heavy
+    # imports for a schema) are tied here, so that a new water type or sky model cannot drift.
+    from sensors.polarimeter import sky, water
+    from twin.world.current import Current
+
+    assert schema.JERLOV_TYPES == water.JERLOV_TYPES == tuple(water.JERLOV_500NM)
+    assert set(schema.JerlovType.__args__) == set(schema.JERLOV_TYPES)
+    assert schema.SKY_POLARIZATION_MODELS == sky.POLARIZATIONS == sky.Polarization.__args__
+    assert Current.KINDS == schema.CURRENT_KINDS == schema.CurrentKind.__args__

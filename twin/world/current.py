@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scenarios.schema import CURRENT_KINDS
+
 
 def _toward_to_en(speed_mps: float, toward_deg: float) -> tuple[float, float]:
     """(East, North) components of a current flowing toward a compass direction."""
@@ -43,7 +45,7 @@ class Current:
         rng: Generator for the gusts (gauss_markov); required for that kind.
     """
 
-    KINDS = ("none", "constant", "profile", "gauss_markov")
+    KINDS = CURRENT_KINDS
 
     def __init__(
         self,
