@@ -2,9 +2,9 @@
 
     python benchmarks/build_lightfield_table.py [--photons N] [--workers W] [--types I II ...]
 
-Writes ``sensors/polarimeter/data/lightfield_jerlov_500nm.npz`` (one table per type, at
+Writes ``sensors/polarimeter/optics/data/lightfield_jerlov_500nm.npz`` (one table per type, at
 turbidity 1, with the scattered light of the default sky model; see
-:mod:`sensors.polarimeter.rt.table`) and prints, per type, the wall time, the
+:mod:`sensors.polarimeter.optics.rt.table`) and prints, per type, the wall time, the
 standard error of the tabulated radiance and the diffuse attenuation K_d the reference gives next
 to Jerlov's. Deterministic: the same photon count gives the same file.
 """
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.polarimeter import water as wa
-from sensors.polarimeter.rt import sky_table as skt
-from sensors.polarimeter.rt import table as tb
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import sky_table as skt
+from sensors.polarimeter.optics.rt import table as tb
+from sensors.polarimeter.optics.sky import SkySpec
 
 
 def main() -> None:

@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 import sensors
-from sensors.polarimeter import water as wa
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.sky import CIE_SKY_TYPES, SkySpec
 from sensors.polarimeter.render import OpticsConfig
-from sensors.polarimeter.sky import CIE_SKY_TYPES, SkySpec
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import LigCompass, LigPaperCompass
 from twin.onboard.compass.pol import PolCompass

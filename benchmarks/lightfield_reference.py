@@ -4,7 +4,7 @@
 
 Writes ``benchmarks/results/lightfield_reference.md`` and ``.json``:
 
-1. **Validation** of the reference (sensors.polarimeter.rt): K_d of every Jerlov type against
+1. **Validation** of the reference (sensors.polarimeter.optics.rt): K_d of every Jerlov type against
    Jerlov's (from the shipped tables' downwelling irradiance, sun 30° from the zenith); the energy
    budget; the DoP maximum's angle from the refracted sun and its value with depth (Jerlov IB);
    the approach of two suns' radiance distributions to one asymptotic shape (1C).
@@ -33,10 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from sensors.polarimeter import stokes as st
-from sensors.polarimeter import water as wa
-from sensors.polarimeter.rt import reference as rf
-from sensors.polarimeter.rt import table as tb
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import reference as rf
+from sensors.polarimeter.optics.rt import table as tb
+from sensors.polarimeter.optics.sky import SkySpec
 from twin.record import provenance as pv
 
 RESULTS = Path(__file__).parent / "results"

@@ -3,10 +3,10 @@
     python benchmarks/optics_sensitivity.py [--out benchmarks/results/optics_sensitivity]
 
 For each input at its sourced value and at the ends of its measured range (one input varied at a
-time; :mod:`sensors.polarimeter.scattering` gives the sources) — the particles' peak linear
+time; :mod:`sensors.polarimeter.optics.scattering` gives the sources) — the particles' peak linear
 polarization P ∈ {0.6, 0.75, 0.9}, the water molecules' depolarization ratio
 δ ∈ {0.0425, 0.044, 0.046} and, for scale, Morel's older δ = 0.09, and the clear sky's CIE
-gradation type ∈ {11, 12, 13} (:mod:`sensors.polarimeter.sky` gives the sources) — an ideal
+gradation type ∈ {11, 12, 13} (:mod:`sensors.polarimeter.optics.sky` gives the sources) — an ideal
 camera, level, at
 1, 5 and 10 m, six suns 20–70° in elevation: the mean zenith error of the solar vector of POL
 and of LIG (the paper's method and the twin's variant) in degrees, + = towards the horizon (the
@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 
 import sensors
-from sensors.polarimeter import scattering as sc
+from sensors.polarimeter.optics import scattering as sc
+from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.render import OpticsConfig
-from sensors.polarimeter.sky import SkySpec
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import LigCompass, LigPaperCompass
 from twin.onboard.compass.pol import PolCompass

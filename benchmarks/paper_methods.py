@@ -29,9 +29,9 @@ import numpy as np
 
 import sensors
 from scenarios.loader import BEAUFORT_MPS
-from sensors.polarimeter.hardware import HardwareErrors
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
+from sensors.polarimeter.unit.hardware import HardwareErrors
 from twin.campaign.moi_noise import add_noise, ideal_aop, imager
 from twin.campaign.snell_turntable import TILTS_DEG
 from twin.campaign.stats import bootstrap_ci

@@ -2,7 +2,7 @@
 
     python benchmarks/renderer_vs_reference.py [--photons N] [--out benchmarks/results/...]
 
-For each case (water, sun zenith in air, depth) the reference (:mod:`sensors.polarimeter.rt`)
+For each case (water, sun zenith in air, depth) the reference (:mod:`sensors.polarimeter.optics.rt`)
 is run on 1° × 3° bins (look zenith × azimuth from the sun) at the case's depth, and the
 renderer's multiply scattered light (everything it renders as scattered, less its closed-form
 single scattering: what the table supplies) is averaged over the same bins (3 × 3 sub-samples,
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.polarimeter import water as wa
-from sensors.polarimeter.rt import reference as rf
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import reference as rf
 from twin.record import provenance as pv
 
 N = 1.34

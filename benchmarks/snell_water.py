@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import sensors
-from sensors.polarimeter import water as wa
+from sensors.polarimeter.optics import water as wa
 from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext

@@ -86,7 +86,7 @@ from scenarios.schema import (
     WaypointLeg,
     nav_variants,
 )
-from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from sensors.polarimeter.optics.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 from twin.core.extensions import INS_ONLY
 
 # ---- error text --------------------------------------------------------------------------------

@@ -23,11 +23,11 @@ from typing import Any, Literal, TypeAlias
 # The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
 # defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
 # The allowed values their owners declare (the loader checks against them; re-exported).
-from sensors.polarimeter.bubbles import BUBBLE_MODELS as BUBBLE_MODELS
-from sensors.polarimeter.caustics import FLICKER_MODELS as FLICKER_MODELS
-from sensors.polarimeter.lens import LENS_MODELS as LENS_MODELS
-from sensors.polarimeter.particles import PARTICLE_MODELS as PARTICLE_MODELS
-from sensors.polarimeter.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from sensors.polarimeter.optics.bubbles import BUBBLE_MODELS as BUBBLE_MODELS
+from sensors.polarimeter.optics.caustics import FLICKER_MODELS as FLICKER_MODELS
+from sensors.polarimeter.optics.particles import PARTICLE_MODELS as PARTICLE_MODELS
+from sensors.polarimeter.optics.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from sensors.polarimeter.unit.lens import LENS_MODELS as LENS_MODELS
 from twin.core.extensions import COMPASS_METHODS, INS_ONLY
 from twin.core.mission import (
     MISSION_KINDS,
@@ -62,7 +62,8 @@ SCENES: tuple[str, ...] = ("open_sea", "tank")
 
 JerlovType: TypeAlias = Literal["I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"]
 # Jerlov (1976): open-ocean types I..III, coastal types 1C..9C (increasingly turbid). The owner is
-# sensors.polarimeter.water.JERLOV_TYPES (its table's keys), too heavy an import for the schema:
+# sensors.polarimeter.optics.water.JERLOV_TYPES (its table's keys), too heavy an import for the
+# schema:
 # tests/scenarios/test_schema.py ties the two.
 JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
 
@@ -111,7 +112,8 @@ class Water:
     of the scene at :data:`TANK_FLOOR_DEPTH_M`. ``particle_peak_polarization`` (P, the particles'
     −m12/m11 near 90°; measured 0.6–0.9 over diverse natural waters) and
     ``depolarization_ratio`` (δ of the water molecules; 0.039 fresh, 0.0425–0.046 at S = 35) shape
-    the scattering phase matrix; their defaults and sources: :mod:`sensors.polarimeter.scattering`.
+    the scattering phase matrix; their defaults and sources:
+    :mod:`sensors.polarimeter.optics.scattering`.
     """
 
     density_kg_m3: float = 1025.0
@@ -224,7 +226,8 @@ class Sensors:
     gravimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
 
 
-# sensors.polarimeter.sky.POLARIZATIONS (a heavy import for the schema: tied by a test instead).
+# sensors.polarimeter.optics.sky.POLARIZATIONS (a heavy import for the schema: tied by a test
+# instead).
 SKY_POLARIZATION_MODELS: tuple[str, ...] = ("rayleigh", "berry")
 
 
@@ -247,13 +250,15 @@ class Optics:
         wavelength_nm: The one wavelength the optics are evaluated at.
         bubbles: ``"hall_novarini"``: the breaking waves' bubbles within a metre or two of the
             surface, bright unpolarized points in the camera's view
-            (``sensors.polarimeter.bubbles``; none on a flat sea, nor in the tank scene, which
+            (``sensors.polarimeter.optics.bubbles``; none on a flat sea, nor in the tank scene,
+            which
             has no breaking waves); ``"ideal"``: none.
         flicker: ``"caustics"``: the waves focus the sun's beam into the moving net that the
-            water's sun-lit light carries (``sensors.polarimeter.caustics``); ``"ideal"``: a
+            water's sun-lit light carries (``sensors.polarimeter.optics.caustics``); ``"ideal"``: a
             uniform beam under the waves.
         particles: ``"marine_snow"``: suspended aggregates through the water column, bright
-            unpolarized points in the camera's view (``sensors.polarimeter.particles``; none in
+            unpolarized points in the camera's view (``sensors.polarimeter.optics.particles``; none
+            in
             the tank scene); ``"ideal"``: none.
     """
 
@@ -328,10 +333,10 @@ MOUNTING_MODELS: tuple[str, ...] = ("bracket", "ideal")
 
 @dataclass(frozen=True, slots=True)
 class Hardware:
-    """The polarimeter unit's error budget (``sensors.polarimeter.hardware``), drawn per run.
+    """The polarimeter unit's error budget (``sensors.polarimeter.unit.hardware``), drawn per run.
 
     Each model is ``"ideal"`` or its real form, whose σ default to the sourced values of
-    ``sensors.polarimeter.hardware`` (tests/sensors/polarimeter/test_hardware.py keeps the two
+    ``sensors.polarimeter.unit.hardware`` (tests/sensors/polarimeter/test_hardware.py keeps the two
     in step). A σ may be set only for a model that is not ideal.
 
     Attributes:
@@ -350,7 +355,7 @@ class Hardware:
         boresight_sigma_deg: 1σ of each boresight rotation component (deg).
         clock_offset_sigma_ms: 1σ of the camera's clock offset (ms).
         lens: ``"fresnel"``: the lens's own diattenuation and retardance, growing with field
-            angle (``sensors.polarimeter.lens``); ``"ideal"``: a polarization-neutral lens.
+            angle (``sensors.polarimeter.unit.lens``); ``"ideal"``: a polarization-neutral lens.
         lens_compensation: The unit's lens is measured on the simulated bench of xin2024 §2.3
             and the vehicle undoes what it found (``twin.onboard.lens``); False: uncompensated.
     """

@@ -16,8 +16,8 @@ import cv2
 import numpy as np
 
 import sensors
+from sensors.polarimeter.optics.sun import sun_position
 from sensors.polarimeter.render import OpticsConfig
-from sensors.polarimeter.sun import sun_position
 from twin.core.frames import euler_to_dcm
 from twin.onboard.polarization import stokes_from_mosaic
 from twin.record import images

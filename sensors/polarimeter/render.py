@@ -5,19 +5,21 @@ place (:class:`sensors.base.WorldView`):
 
 1. camera rays (cached), rotated into ENU by the site attitude C_c^n; through the housing port
    (dome: unbent; flat: Snell and Fresnel twice);
-2. the sun (NREL SPA, :class:`~sensors.polarimeter.sun.SunTracker`);
-3. below the surface: the sea surface (:mod:`~sensors.polarimeter.surface`: Snell, Fresnel Mueller,
+2. the sun (NREL SPA, :class:`~sensors.polarimeter.optics.sun.SunTracker`);
+3. below the surface: the sea surface (:mod:`~sensors.polarimeter.optics.surface`: Snell, Fresnel
+   Mueller,
    optional Cox–Munk waves) maps each in-water ray to the sky direction it sees; the sky
-   (:mod:`~sensors.polarimeter.sky`) is evaluated there and transmitted; the water column
-   (:mod:`~sensors.polarimeter.water`) attenuates it and adds single- and multiple-scattered light.
+   (:mod:`~sensors.polarimeter.optics.sky`) is evaluated there and transmitted; the water column
+   (:mod:`~sensors.polarimeter.optics.water`) attenuates it and adds single- and multiple-scattered
+   light.
    Above the surface (a camera in air, depth ≤ 0): the sky directly, nothing below the horizon;
 4. occlusion: the rays are cast against the MuJoCo scene (``mujoco.mj_multiRay``) on a coarse grid
    (every ``occlusion_stride_px``-th pixel, nearest-neighbour upsampled); a blocked pixel keeps
    only the scattered light (no direct sky);
 5. radiance (W m⁻² sr⁻¹ nm⁻¹ × the passband) → photons per pixel per second (the camera equation,
-   :func:`~sensors.polarimeter.mosaic.photon_rate_per_pixel`), polarization carried onto the
+   :func:`~sensors.polarimeter.unit.mosaic.photon_rate_per_pixel`), polarization carried onto the
    sensor plane by the lens (``Camera.sensor_stokes_from_meridian``);
-6. the DoFP sensor (:class:`~sensors.polarimeter.mosaic.DoFPSensor`): analysers, fixed pattern,
+6. the DoFP sensor (:class:`~sensors.polarimeter.unit.mosaic.DoFPSensor`): analysers, fixed pattern,
    exposure, shot/read/dark noise, ADC → the raw uint16 mosaic.
 
 Steps 1–5 run, by default (``PolarimeterSpec.fast``), on a coarse grid of points (every
@@ -51,24 +53,24 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.base import Sensor, SensorSpec, WorldView
-from sensors.polarimeter import bench as bench_mod
-from sensors.polarimeter import bubbles as bubbles_mod
-from sensors.polarimeter import camera as camera_mod
-from sensors.polarimeter import caustics as caustics_mod
-from sensors.polarimeter import lens as lens_mod
-from sensors.polarimeter import mosaic as mosaic_mod
-from sensors.polarimeter import particles as particles_mod
 from sensors.polarimeter import stokes as stokes_mod
-from sensors.polarimeter import surface as surface_mod
 from sensors.polarimeter import tank as tank_mod
-from sensors.polarimeter import water as water_mod
-from sensors.polarimeter.calibration import calibration_from_spec
-from sensors.polarimeter.hardware import HardwareErrors, HardwareUnit
-from sensors.polarimeter.sky import sky_radiance
+from sensors.polarimeter.optics import bubbles as bubbles_mod
+from sensors.polarimeter.optics import caustics as caustics_mod
+from sensors.polarimeter.optics import particles as particles_mod
+from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics import water as water_mod
+from sensors.polarimeter.optics.sky import sky_radiance
+from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
 
 # The configuration and truth records live in spec.py; re-exported here, where users import them.
 from sensors.polarimeter.spec import OpticsConfig, PolarimeterSpec, PolarimeterTruth
-from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
+from sensors.polarimeter.unit import bench as bench_mod
+from sensors.polarimeter.unit import camera as camera_mod
+from sensors.polarimeter.unit import lens as lens_mod
+from sensors.polarimeter.unit import mosaic as mosaic_mod
+from sensors.polarimeter.unit.calibration import calibration_from_spec
+from sensors.polarimeter.unit.hardware import HardwareErrors, HardwareUnit
 from sensors.registry import register
 from twin.core.calibration import CameraCalibration
 
@@ -320,7 +322,7 @@ class Polarimeter(Sensor):
         self._last_t: float | None = None
         self.truth: PolarimeterTruth | None = None
         self._calibration: CameraCalibration | None = None
-        # The unit's error budget (world side: sensors/polarimeter/hardware.py) and its draw.
+        # The unit's error budget (world side: sensors/polarimeter/unit/hardware.py) and its draw.
         # Ideal by default, so offline studies see the exact camera unless they ask otherwise;
         # scenarios configure their [hardware] budget (twin/world/assembly.py).
         self.hardware = HardwareErrors.ideal()
@@ -435,7 +437,7 @@ class Polarimeter(Sensor):
         return mosaic_mod.DoFPSensor(self.pspec.sensor_spec(), self.camera.shape, rng, optics=lens)
 
     def lens_transfer(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """(T̄, D, δ, radial angle) of the lens at every pixel (``sensors.polarimeter.lens``)."""
+        """(T̄, D, δ, radial angle) of the lens at every pixel (``unit.lens``)."""
         cam = self.camera
         h, w = cam.shape
         cu, cv = self.true_calibration().principal_point_px
@@ -544,7 +546,7 @@ class Polarimeter(Sensor):
             c_cn: C_c^n, camera → ENU (3×3 rotation), of the nominal mount: a drawn unit's
                 boresight turns it to the true camera's.
             depth_m: Camera depth (≤ 0: in air).
-            sun: A :class:`~sensors.polarimeter.sun.SunPosition` or an ENU unit vector.
+            sun: A :class:`~sensors.polarimeter.optics.sun.SunPosition` or an ENU unit vector.
             rng: Generator.
             t: Time stamp for the truth record.
 
@@ -659,7 +661,8 @@ class Polarimeter(Sensor):
         """Draw this frame's bubbles or aggregates; add each to its pixel's S0 (photons/s).
 
         An unresolved point of intensity I at range r reads as the radiance I/(r² Ω) in a pixel
-        of solid angle Ω (outside the housing; :mod:`sensors.polarimeter.bubbles`). Unpolarized:
+        of solid angle Ω (outside the housing; :mod:`sensors.polarimeter.optics.bubbles`).
+        Unpolarized:
         S1 = S2 = 0 in any basis. Points on occluded pixels are dropped (the hull's shadow and
         what lies behind it are not known). Returns how many were added.
         """
@@ -734,7 +737,7 @@ class Polarimeter(Sensor):
             pos: Camera position (ENU, m).
             c_cn: C_c^n, camera → ENU.
             depth_m: Camera depth below the surface (≤ 0: in air).
-            sun: A :class:`~sensors.polarimeter.sun.SunPosition` (or ENU vector).
+            sun: A :class:`~sensors.polarimeter.optics.sun.SunPosition` (or ENU vector).
 
         Returns:
             (stokes (H, W, 3) float32, Snell-window mask, occlusion mask, ENU look direction of
@@ -803,7 +806,7 @@ class Polarimeter(Sensor):
     ) -> FloatArray:
         """The single-scattered sun light scaled by each ray's caustic factor.
 
-        :mod:`sensors.polarimeter.caustics`: the factor is smooth across neighbouring rays (a
+        :mod:`sensors.polarimeter.optics.caustics`: the factor is smooth across neighbouring rays (a
         caustic cell, ~ℓ = 0.3 m, spans degrees at the ranges that matter), so it is computed on
         every 4th pixel and resized. Keeps the frame's field for the bubbles it lights.
         """

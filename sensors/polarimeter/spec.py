@@ -15,15 +15,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.base import SensorSpec
-from sensors.polarimeter import bubbles as bubbles_mod
-from sensors.polarimeter import camera as camera_mod
-from sensors.polarimeter import caustics as caustics_mod
-from sensors.polarimeter import mosaic as mosaic_mod
-from sensors.polarimeter import particles as particles_mod
-from sensors.polarimeter import scattering as scattering_mod
-from sensors.polarimeter import surface as surface_mod
-from sensors.polarimeter import water as water_mod
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics import bubbles as bubbles_mod
+from sensors.polarimeter.optics import caustics as caustics_mod
+from sensors.polarimeter.optics import particles as particles_mod
+from sensors.polarimeter.optics import scattering as scattering_mod
+from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics import water as water_mod
+from sensors.polarimeter.optics.sky import SkySpec
+from sensors.polarimeter.unit import camera as camera_mod
+from sensors.polarimeter.unit import mosaic as mosaic_mod
 
 FloatArray = NDArray[np.floating]
 
@@ -44,15 +44,16 @@ class OpticsConfig:
         wind_speed_mps: Wind at 12.5 m for Cox–Munk slopes; 0 = a flat sea.
         wind_toward_deg: Compass direction the wind blows toward.
         bubbles: ``"hall_novarini"``: the breaking waves' bubbles near the surface, drawn per
-            frame as bright unpolarized points (:mod:`sensors.polarimeter.bubbles`; none on a
+            frame as bright unpolarized points (:mod:`sensors.polarimeter.optics.bubbles`; none on a
             flat sea or in a tank); ``"ideal"``: none. Ideal by default here, so offline studies
             see only what they ask for; a scenario's ``[optics]`` defaults to the real one.
         flicker: ``"caustics"``: the waves focus the sun's beam into a moving net that the
             water's sun-lit path radiance (and the bubbles) carry
-            (:mod:`sensors.polarimeter.caustics`; a flat sea has none); ``"ideal"``: the beam
+            (:mod:`sensors.polarimeter.optics.caustics`; a flat sea has none); ``"ideal"``: the beam
             stays uniform under the waves. Ideal by default here, as ``bubbles``.
         particles: ``"marine_snow"``: suspended aggregates through the water column, drawn per
-            frame as bright unpolarized points (:mod:`sensors.polarimeter.particles`; none in a
+            frame as bright unpolarized points (:mod:`sensors.polarimeter.optics.particles`; none in
+            a
             tank); ``"ideal"``: none. Ideal by default here, as ``bubbles``.
     """
 
@@ -253,8 +254,10 @@ class PolarimeterTruth:
         depth_m: Camera depth below the surface (negative: in air).
         night: The sun was below the night threshold.
         exposure_us: Exposure used.
-        bubbles: How many bubbles were drawn into the frame (:mod:`sensors.polarimeter.bubbles`).
-        particles: How many marine-snow aggregates were (:mod:`sensors.polarimeter.particles`).
+        bubbles: How many bubbles were drawn into the frame
+            (:mod:`sensors.polarimeter.optics.bubbles`).
+        particles: How many marine-snow aggregates were
+            (:mod:`sensors.polarimeter.optics.particles`).
     """
 
     t: float

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from sensors.polarimeter.sun import sun_position
+from sensors.polarimeter.optics.sun import sun_position
 from twin.core.ephemeris import sun_direction_enu, sun_zenith_azimuth
 
 

@@ -726,8 +726,8 @@ def test_bad_optics_name_the_field(key: str, value: object, field: str) -> None:
 
 
 def test_bubbles_and_flicker_default_to_the_real_sea_and_reach_the_camera() -> None:
-    from sensors.polarimeter.bubbles import BUBBLE_MODELS
-    from sensors.polarimeter.caustics import FLICKER_MODELS
+    from sensors.polarimeter.optics.bubbles import BUBBLE_MODELS
+    from sensors.polarimeter.optics.caustics import FLICKER_MODELS
     from twin.world.assembly import optics_config
 
     assert schema.BUBBLE_MODELS == BUBBLE_MODELS and schema.FLICKER_MODELS == FLICKER_MODELS
@@ -763,7 +763,7 @@ def test_the_wind_may_be_a_beaufort_force_but_not_both() -> None:
 def test_each_value_list_the_schema_copies_equals_its_owners() -> None:
     # The lists the schema imports are one declaration; the two it copies (their owners are heavy
     # imports for a schema) are tied here, so that a new water type or sky model cannot drift.
-    from sensors.polarimeter import sky, water
+    from sensors.polarimeter.optics import sky, water
     from twin.world.current import Current
 
     assert schema.JERLOV_TYPES == water.JERLOV_TYPES == tuple(water.JERLOV_500NM)

@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 
 import sensors
-from sensors.polarimeter.hardware import HardwareErrors
+from sensors.polarimeter.optics.water import jerlov_water
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
-from sensors.polarimeter.water import jerlov_water
+from sensors.polarimeter.unit.hardware import HardwareErrors
 from twin.campaign.trials import StudyTrial
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm

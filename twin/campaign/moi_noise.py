@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from sensors.polarimeter.calibration import calibration_from_spec
-from sensors.polarimeter.camera import preset
+from sensors.polarimeter.unit.calibration import calibration_from_spec
+from sensors.polarimeter.unit.camera import preset
 from twin.campaign.trials import StudyTrial
 from twin.onboard.compass.moi import _geometry, estimate_axis
 

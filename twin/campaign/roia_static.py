@@ -9,7 +9,7 @@
   azimuth RMSE 1.10°, 2.03°, 3.04° (against the Hong Kong Observatory's azimuth; with the true
   heading known that is the heading error here).
 
-One trial = one unit (the sourced hardware budget of ``sensors.polarimeter.hardware``, the
+One trial = one unit (the sourced hardware budget of ``sensors.polarimeter.unit.hardware``, the
 IMX264MZR camera with the 185° lens, auto exposure) over one session of 30 frames 20 s apart;
 the metric is the RMSE over the session's frames.
 
@@ -36,9 +36,9 @@ import numpy as np
 
 import sensors
 from scenarios.loader import BEAUFORT_MPS
-from sensors.polarimeter.hardware import HardwareErrors
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
+from sensors.polarimeter.unit.hardware import HardwareErrors
 from twin.campaign.trials import StudyTrial
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm

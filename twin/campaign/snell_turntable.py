@@ -29,11 +29,11 @@ What the paper does not state, and what the twin assumes [uncertain]:
 * The camera is binned 4×4 (612×512) for speed: the Snell method works on a 4×4-binned frame
   anyway; on-sensor binning has less read noise than the paper's software binning would.
 * The distortion ablation (§2.4, §3.2): FE185C046HA-1's departure from the equidistant projection
-  is not published; the preset lens has the TUM VI fisheye's (sensors/polarimeter/camera.py).
+  is not published; the preset lens has the TUM VI fisheye's (sensors/polarimeter/unit/camera.py).
   "Without distortion correction" is read as the vehicle working with the lens's datasheet model
   (equidistant, f = 1.4 mm, the optical axis at the sensor's centre) instead of the unit's
   calibration; the unit's lens is off that model by ISO 517's focal-length tolerance and a
-  decentre (sensors/polarimeter/hardware.py, LensTolerance). The paper does not say what model
+  decentre (sensors/polarimeter/unit/hardware.py, LensTolerance). The paper does not say what model
   its uncorrected runs used [uncertain].
 """
 
@@ -49,9 +49,9 @@ import numpy as np
 
 import sensors
 from scenarios.loader import BEAUFORT_MPS
-from sensors.polarimeter.hardware import HardwareErrors
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
+from sensors.polarimeter.unit.hardware import HardwareErrors
 from twin.campaign.trials import StudyTrial
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm

@@ -1,6 +1,6 @@
 """The vehicle's calibration of its polarimeter: pixel ↔ ray geometry, known to onboard code.
 
-The world renders with ``sensors.polarimeter.camera``; the vehicle computer knows only this
+The world renders with ``sensors.polarimeter.unit.camera``; the vehicle computer knows only this
 calibration (what a checkerboard session and the mechanical drawing would give it) and must not
 import the renderer. The conventions are the renderer's, so that a perfect calibration reproduces
 its rays exactly (tests/sensors/polarimeter/test_calibration.py checks that against the world

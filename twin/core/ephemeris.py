@@ -1,7 +1,8 @@
 """The one sun ephemeris: NREL SPA (pvlib), apparent position, interpolated between knots.
 
 Shared contract (``twin.core``): the world renders the sky with it (the polarimeter's sun stage,
-:mod:`sensors.polarimeter.sun`) and the vehicle computer computes the sun's direction with it from
+:mod:`sensors.polarimeter.optics.sun`) and the vehicle computer computes the sun's direction with it
+from
 what it knows (declared place, its clock's UTC), as a real vehicle computer would.
 
 The position is pvlib's port of the NREL Solar Position Algorithm (Reda & Andreas 2004, Solar
@@ -24,7 +25,7 @@ Night: :data:`NIGHT_ELEVATION_DEG` = −0.833°, the conventional sunset/sunrise
 limb (solar semi-diameter 0.2667° + standard horizon refraction 0.5667°). SPA applies refraction
 only while the sun is within that band of the horizon, so an apparent elevation below −0.833° means
 the whole disc has set. Twilight sky light is not modelled: the sky stage renders a night sky
-(:mod:`sensors.polarimeter.sky`).
+(:mod:`sensors.polarimeter.optics.sky`).
 """
 
 from __future__ import annotations

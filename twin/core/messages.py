@@ -20,7 +20,7 @@ class Reading:
         sensor: The sensor's name (unique in a run, e.g. ``"imu"``).
         t: The reading's time stamp (s): the sampling instant on the sensor's own clock, which
             is the sim clock except for a sensor with a clock offset (a drawn polarimeter unit,
-            ``sensors.polarimeter.hardware``); the truth a reading carries keeps the true
+            ``sensors.polarimeter.unit.hardware``); the truth a reading carries keeps the true
             instant.
         t_delivered: Sim time in seconds at which the vehicle computer receives it
             (the true sampling instant plus the sensor's delay).

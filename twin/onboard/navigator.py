@@ -225,7 +225,7 @@ class Navigator:
         last gyro sample less the filter's bias estimate (constant over Δt: frames are fused
         within a camera delay of the IMU clock, ≤ 0.1 s, where the rate barely changes). The
         stamp is all the vehicle knows of the frame's time, so a camera clock offset leaves an
-        error of ω times the offset (``sensors.polarimeter.hardware``).
+        error of ω times the offset (``sensors.polarimeter.unit.hardware``).
         """
         f = self.filter
         lag = f.t - t_stamp

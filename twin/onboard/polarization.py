@@ -13,7 +13,7 @@ Conventions:
 * Angles (analyser angles and the AoP) are measured from the image +u axis (increasing column)
   towards +v (increasing row): clockwise on a display with row 0 at the top. That is the sense
   of ``sensors.polarimeter.stokes`` (right-handed about the direction the light travels) in the
-  twin's image frame, where (``sensors.polarimeter.camera``) v runs along camera −y, light
+  twin's image frame, where (``sensors.polarimeter.unit.camera``) v runs along camera −y, light
   reaches the sensor along −z and the sensor-plane reference is +x = +u. The twin's image is the
   sky drawn as a map seen from above — the mirror image of what a physical upward-looking camera
   delivers — so on a real camera's own, unmirrored frame the same physical sense is

@@ -55,7 +55,7 @@ class RunScorer:
             for name, event in result.events:
                 if name in self.fixes:
                     # event.t is the frame's stamp; its truth record keeps the true instant,
-                    # which a camera clock offset (sensors/polarimeter/hardware.py) moves away.
+                    # which a camera clock offset (sensors/polarimeter/unit/hardware.py) moves away.
                     frame = frames.get(event.t)
                     taken = getattr(frame, "t", event.t)
                     same_instant = abs(taken - now.t) < 1e-9

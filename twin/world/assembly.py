@@ -14,15 +14,15 @@ import numpy as np
 
 import sensors
 from scenarios.schema import Hardware, Scenario
-from sensors.polarimeter.hardware import (
+from sensors.polarimeter.optics.sky import SkySpec
+from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.unit.hardware import (
     CalibrationUncertainty,
     HardwareErrors,
     LensTolerance,
     MountingError,
 )
-from sensors.polarimeter.lens import LensPolarization
-from sensors.polarimeter.render import OpticsConfig
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.unit.lens import LensPolarization
 from sensors.suite import SensorSuite
 from twin.core.frames import heading_deg_to_yaw
 from twin.world.current import Current, CurrentProfilePoint

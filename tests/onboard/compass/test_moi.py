@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes
-from sensors.polarimeter.calibration import calibration_from_spec
-from sensors.polarimeter.camera import Camera, preset
-from sensors.polarimeter.mosaic import DoFPSensor
-from sensors.polarimeter.mosaic import preset as sensor_preset
-from sensors.polarimeter.sky import SkySpec, sky_radiance
+from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
+from sensors.polarimeter.unit.calibration import calibration_from_spec
+from sensors.polarimeter.unit.camera import Camera, preset
+from sensors.polarimeter.unit.mosaic import DoFPSensor
+from sensors.polarimeter.unit.mosaic import preset as sensor_preset
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import CompassContext, create
 from twin.onboard.compass.moi import Liang2020Config, estimate_axis

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import sensors
-from sensors.polarimeter import bubbles as bubbles_mod
-from sensors.polarimeter.bubbles import A_MAX_M, BubblePopulation, hg_phase
+from sensors.polarimeter.optics import bubbles as bubbles_mod
+from sensors.polarimeter.optics.bubbles import A_MAX_M, BubblePopulation, hg_phase
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from twin.onboard.compass import create

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes
-from sensors.polarimeter.calibration import calibration_from_spec
-from sensors.polarimeter.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
-from sensors.polarimeter.mosaic import preset as sensor_preset
+from sensors.polarimeter.unit.calibration import calibration_from_spec
+from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
+from sensors.polarimeter.unit.mosaic import preset as sensor_preset
 
 
 @pytest.mark.parametrize(

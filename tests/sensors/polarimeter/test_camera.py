@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes
-from sensors.polarimeter.camera import (
+from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
+from sensors.polarimeter.unit.camera import (
     PRESETS,
     SENSOR_PROPAGATION,
     SENSOR_REFERENCE,
@@ -17,7 +18,6 @@ from sensors.polarimeter.camera import (
     flat_port_refraction,
     preset,
 )
-from sensors.polarimeter.sky import SkySpec, sky_radiance
 from twin.core.frames import euler_to_dcm
 
 F_FE185_MM = 1.8

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import sensors
-from sensors.polarimeter import surface as surface_mod
-from sensors.polarimeter.caustics import CausticField
+from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics.caustics import CausticField
 from sensors.polarimeter.render import OpticsConfig
 
 N_WATER = 1.34
@@ -19,7 +19,8 @@ SUN = np.array([math.cos(math.radians(40)), 0.0, math.sin(math.radians(40))])
 class _Sinusoid:
     """A slope field with one sinusoid along East: the lens whose focus geometry is known.
 
-    Stands in for :class:`~sensors.polarimeter.surface.WaveSurface` (the field uses only ``sea``
+    Stands in for :class:`~sensors.polarimeter.optics.surface.WaveSurface` (the field uses only
+    ``sea``
     and ``slopes_at``); amplitude 0 is a flat sea.
     """
 

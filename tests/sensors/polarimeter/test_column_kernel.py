@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from sensors.polarimeter.column_kernel import fresnel_up_meridian
-from sensors.polarimeter.rt.kernel import _reflect_from_below, meridian
+from sensors.polarimeter.optics.column_kernel import fresnel_up_meridian
+from sensors.polarimeter.optics.rt.kernel import _reflect_from_below, meridian
 
 N_WATER = 1.339
 

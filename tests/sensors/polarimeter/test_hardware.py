@@ -13,13 +13,13 @@ import sensors
 from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
 from scenarios.schema import HARDWARE_SIGMAS, Hardware
-from sensors.polarimeter.hardware import (
+from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.unit.hardware import (
     CalibrationUncertainty,
     HardwareErrors,
     HardwareUnit,
     MountingError,
 )
-from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
 from twin.onboard.compass.base import CompassContext

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import sensors
-from sensors.polarimeter.bench import measure_lens
-from sensors.polarimeter.hardware import CalibrationUncertainty, HardwareErrors, MountingError
-from sensors.polarimeter.lens import LensPolarization, fold_radial, radial_mueller
+from sensors.polarimeter.unit.bench import measure_lens
+from sensors.polarimeter.unit.hardware import CalibrationUncertainty, HardwareErrors, MountingError
+from sensors.polarimeter.unit.lens import LensPolarization, fold_radial, radial_mueller
 from twin.onboard.lens import compensate, compensate_grid, grid_uv
 from twin.onboard.polarization import stokes_from_mosaic
 

@@ -12,8 +12,8 @@ import pytest
 import sensors
 from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
-from sensors.polarimeter.hardware import HardwareErrors, LensTolerance
 from sensors.polarimeter.render import OpticsConfig
+from sensors.polarimeter.unit.hardware import HardwareErrors, LensTolerance
 from tests.scenario_helpers import minimal_scenario
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext

@@ -19,14 +19,14 @@ import numpy as np
 import pytest
 
 import sensors
-from sensors.polarimeter import scattering as sc
-from sensors.polarimeter import water as wa
+from sensors.polarimeter.optics import scattering as sc
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import decompose as dc
+from sensors.polarimeter.optics.rt import reference as rf
+from sensors.polarimeter.optics.rt import sky_table as skt
+from sensors.polarimeter.optics.rt import table as tb
+from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
-from sensors.polarimeter.rt import decompose as dc
-from sensors.polarimeter.rt import reference as rf
-from sensors.polarimeter.rt import sky_table as skt
-from sensors.polarimeter.rt import table as tb
-from sensors.polarimeter.sky import SkySpec
 from twin.core.frames import euler_to_dcm
 
 N = tb.TABLE_INDEX

@@ -1,4 +1,4 @@
-"""The light-field table (sensors.polarimeter.rt.table) and the renderer that follows it."""
+"""The light-field table (sensors.polarimeter.optics.rt.table) and the renderer that follows it."""
 
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes as st
-from sensors.polarimeter import surface as sf
-from sensors.polarimeter import water as wa
-from sensors.polarimeter.rt import reference as rf
-from sensors.polarimeter.rt import sky_table as skt
-from sensors.polarimeter.rt import table as tb
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import reference as rf
+from sensors.polarimeter.optics.rt import sky_table as skt
+from sensors.polarimeter.optics.rt import table as tb
+from sensors.polarimeter.optics.sky import SkySpec
 
 N = tb.TABLE_INDEX
 

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sensors.polarimeter.mosaic import (
+from sensors.polarimeter.unit.mosaic import (
     IMX250MZR_LAYOUT_DEG,
     PRESETS,
     DoFPSensor,
@@ -167,7 +167,7 @@ def test_aop_follows_the_chain_convention_from_evector_to_onboard_aop():
     # sensor-plane Stokes are referenced to +x. An E-vector along (1, −1, 0) points to +u and +v
     # in the image, 45° from +u towards +v: the onboard AoP must read +45°.
     from sensors.polarimeter import stokes as stokes_mod
-    from sensors.polarimeter.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE
+    from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE
 
     d, ref = SENSOR_PROPAGATION, SENSOR_REFERENCE
     np.testing.assert_array_equal(d, [0.0, 0.0, -1.0])

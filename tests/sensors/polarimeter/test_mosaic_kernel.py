@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from sensors.polarimeter.mosaic import DoFPSensor, preset
+from sensors.polarimeter.unit.mosaic import DoFPSensor, preset
 
 
 def _field(shape: tuple[int, int], seed: int) -> np.ndarray:
@@ -78,7 +78,7 @@ def test_a_pixel_past_two_to_the_31_dn_reads_saturation_not_zero():
 def test_fma32_rounds_once():
     from numba import njit
 
-    from sensors.polarimeter.mosaic_kernel import fma32
+    from sensors.polarimeter.unit.mosaic_kernel import fma32
 
     @njit
     def f(a, b, c):

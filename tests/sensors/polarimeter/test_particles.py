@@ -10,8 +10,8 @@ import pytest
 import sensors
 from scenarios import parse_scenario
 from scenarios.loader import ScenarioError
-from sensors.polarimeter.bubbles import BubbleDraw, bubble_radiance
-from sensors.polarimeter.particles import MarineSnow
+from sensors.polarimeter.optics.bubbles import BubbleDraw, bubble_radiance
+from sensors.polarimeter.optics.particles import MarineSnow
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from tests.scenario_helpers import minimal_scenario

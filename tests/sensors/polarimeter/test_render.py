@@ -10,8 +10,8 @@ import pytest
 from scene_world import WIDE_PIER, SceneWorld
 
 import sensors
+from sensors.polarimeter.optics.surface import snell_window_half_angle
 from sensors.polarimeter.render import OpticsConfig, Polarimeter, PolarimeterSpec
-from sensors.polarimeter.surface import snell_window_half_angle
 from twin.core.frames import euler_to_dcm
 from twin.onboard.polarization import stokes_from_mosaic
 

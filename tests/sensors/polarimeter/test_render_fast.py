@@ -21,8 +21,8 @@ import pytest
 from scene_world import NARROW_PIER, SceneWorld
 
 import sensors
+from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.render import OpticsConfig, Polarimeter
-from sensors.polarimeter.sky import SkySpec
 from twin.core.frames import euler_to_dcm
 
 

@@ -1,4 +1,4 @@
-"""Validation of the radiative-transfer reference (sensors.polarimeter.rt.reference).
+"""Validation of the radiative-transfer reference (sensors.polarimeter.optics.rt.reference).
 
 Each test is one of the checks the reference must pass before the renderer may follow it: the
 optically thin limit, energy conservation, Jerlov's K_d, the DoP maximum near 90° from the
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes as st
-from sensors.polarimeter import surface as sf
-from sensors.polarimeter import water as wa
-from sensors.polarimeter.rt import reference as rf
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics.rt import reference as rf
+from sensors.polarimeter.optics.sky import SkySpec
 
 N = 1.34
 

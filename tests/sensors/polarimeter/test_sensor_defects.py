@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from sensors.polarimeter.mosaic import DoFPSensor, preset
+from sensors.polarimeter.unit.mosaic import DoFPSensor, preset
 from twin.onboard.polarization import stokes_from_mosaic
 
 # The LIG paper's Table 1 (hu2024): the PHX050S-P polarimeter's "AoP perception accuracy 0.61°

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes
-from sensors.polarimeter.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
-from sensors.polarimeter.sky import (
+from sensors.polarimeter.optics.sky import (
     CIE_SKY_TYPES,
     SkySpec,
     berry_neutral_points,
@@ -15,7 +14,8 @@ from sensors.polarimeter.sky import (
     photon_radiance,
     sky_radiance,
 )
-from sensors.polarimeter.sun import direction_from_zenith_azimuth
+from sensors.polarimeter.optics.sun import direction_from_zenith_azimuth
+from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
 from twin.core.frames import euler_to_dcm
 
 NO_DISC = {"sun_relative_radiance": 0.0}

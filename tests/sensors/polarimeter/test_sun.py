@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sensors.polarimeter.sun import (
+from sensors.polarimeter.optics.sun import (
     NIGHT_ELEVATION_DEG,
     SunTracker,
     direction_from_zenith_azimuth,

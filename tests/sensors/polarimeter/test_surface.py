@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes as st
-from sensors.polarimeter import surface as sf
+from sensors.polarimeter.optics import surface as sf
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

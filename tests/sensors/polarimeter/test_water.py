@@ -10,8 +10,8 @@ import pytest
 from scipy.integrate import quad
 
 from sensors.polarimeter import stokes as st
-from sensors.polarimeter import surface as sf
-from sensors.polarimeter import water as wa
+from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import water as wa
 
 N = 1.34
 

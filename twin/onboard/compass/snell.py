@@ -235,7 +235,8 @@ def binning_for(calibration: CameraCalibration, max_px: int | None) -> int:
 def binned_calibration(calibration: CameraCalibration, b: int) -> CameraCalibration:
     """The calibration of a frame binned b×b by same orientation (``bin_mosaic``).
 
-    The convention of the world's on-sensor binning (``sensors.polarimeter.camera``): binned pixel
+    The convention of the world's on-sensor binning (``sensors.polarimeter.unit.camera``): binned
+    pixel
     k sits at frame coordinate b·k + (b − 1)/2, so f → f/b and c → (c − (b − 1)/2)/b; the
     ±(b − 1)/2 offset of each orientation's b×b centroid is neglected, as there.
     """

@@ -3,12 +3,13 @@
 One loop over look directions v (ENU) computes, for each pixel, in the meridian reference of the
 light's direction d = −v (:func:`sensors.polarimeter.stokes.meridian_reference`):
 
-1. the refracted sun beam scattered once (:mod:`sensors.polarimeter.water`, eq. 2): magnitude
+1. the refracted sun beam scattered once (:mod:`sensors.polarimeter.optics.water`, eq. 2): magnitude
    β(Θ) E G(v) in closed form, polarization R(−χ₂) M(Θ) R(χ₁) (1, q_b, 0) with the sea-water phase
-   matrix M of :mod:`sensors.polarimeter.scattering` and the beam's Fresnel polarization q_b;
+   matrix M of :mod:`sensors.polarimeter.optics.scattering` and the beam's Fresnel polarization q_b;
 2. everything else that was scattered (the multiply scattered sun, the scattered sky, the upwelling
    light and its reflection at the surface), sampled bilinearly from the frame's
-   :class:`sensors.polarimeter.rt.table.FrameField` at (look zenith, azimuth from the sun), never
+   :class:`sensors.polarimeter.optics.rt.table.FrameField` at (look zenith, azimuth from the sun),
+   never
    across Snell's window edge.
 
 Why a compiled loop: the polarization of single scattering needs two frame rotations per pixel
@@ -23,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.rt.kernel import lut_index, meridian
+from sensors.polarimeter.optics.rt.kernel import lut_index, meridian
 
 
 @njit(cache=True, inline="always")
@@ -166,7 +167,7 @@ def _lookup(grid, t_cos, cz_t, phi, dphi):
 
 @njit(cache=True, inline="always")
 def aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom):
-    """The sun's aureole (tapered, :mod:`sensors.polarimeter.rt.decompose`) in look direction v.
+    """The sun's aureole (tapered, :mod:`~sensors.polarimeter.optics.rt.decompose`) along v.
 
     ``agrid`` (n_rows, n_ω + 2, 3): rows at ψ = ``apsi`` (0, the bin centres, the last edge where
     the taper is 0), columns at position angle ω = (j − ½) ``dom`` about the sun from its upward

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from sensors.polarimeter.mosaic import DoFPSensor
+from sensors.polarimeter.unit.mosaic import DoFPSensor
 from twin.core.calibration import CameraCalibration
 
 #: The paper's bench: incidence 0–90° in 10° steps, polarizer 0–170° in 10° steps (xin2024 §2.3).

@@ -5,7 +5,7 @@ What a flawless checkerboard session would give the vehicle: the same radial mod
 point and polarization mapping the renderer uses, expressed in pixels of the *delivered* (binned)
 frame, which is how :class:`twin.core.calibration.CameraCalibration` states its intrinsics.
 
-Binning b (``sensors.polarimeter.camera``): binned pixel k sits at full-resolution coordinate
+Binning b (``sensors.polarimeter.unit.camera``): binned pixel k sits at full-resolution coordinate
 b·k + (b − 1)/2 and the intrinsics are given at full resolution, so in binned pixels the focal
 length is f/b and the principal point is (c − (b − 1)/2)/b. Both radial models the calibration
 knows (Kannala–Brandt, perspective) are linear in f, so this is exact.
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import math
 
-from sensors.polarimeter.camera import FisheyeSpec
-from sensors.polarimeter.mosaic import PolarizationSensorSpec
+from sensors.polarimeter.unit.camera import FisheyeSpec
+from sensors.polarimeter.unit.mosaic import PolarizationSensorSpec
 from twin.core.calibration import CameraCalibration
 
 

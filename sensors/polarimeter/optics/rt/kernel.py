@@ -30,7 +30,8 @@ Fresnel-reflected Stokes vector (total internal reflection beyond the critical a
 retardance) goes on. A plane crossing scores the photon's Stokes vector, turned to the local
 meridian reference of its direction, into the bin of its look direction v = −d: class 0 if it has
 been scattered exactly once and never reflected (the closed-form single scattering of
-:mod:`sensors.polarimeter.water`), class 1 otherwise; unscattered photons score only irradiance.
+:mod:`sensors.polarimeter.optics.water`), class 1 otherwise; unscattered photons score only
+irradiance.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ ROULETTE_SURVIVAL = 0.1
 def lut_at(table, row, cos_theta):
     """Row ``row`` of a phase-matrix table uniform in u = sin(Θ/2), linearly interpolated at Θ.
 
-    Shared by this kernel and :mod:`sensors.polarimeter.column_kernel`, so that the reference and
+    Shared by this kernel and :mod:`sensors.polarimeter.optics.column_kernel`, so that the reference
+    and
     the renderer read the phase matrix the same way.
     """
     j, f = lut_index(table, cos_theta)
@@ -316,7 +318,7 @@ def _enter_facet(ax, ay, az, rx, ry, rz, si, sq, su, n_water, nx, ny, nz):
 
     Light travelling along a with Stokes (I, Q, U) relative to r. Returns the transmitted Stokes
     (I, Q, U, V; I is the transmitted flux, Born & Wolf power transmittances as in
-    :func:`sensors.polarimeter.surface.fresnel_elements`), its direction t (Snell) and
+    :func:`sensors.polarimeter.optics.surface.fresnel_elements`), its direction t (Snell) and
     reference (the p-axis s × t).
     """
     sx, sy, sz = _s_axis(ax, ay, az, nx, ny, nz)

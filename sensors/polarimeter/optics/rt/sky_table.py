@@ -1,12 +1,13 @@
 """The sky's scattered light over a water, per sky shape: the second half of the light-field table.
 
-For one water body and sea (:class:`sensors.polarimeter.rt.table.WaterKey`) and one sky shape
+For one water body and sea (:class:`sensors.polarimeter.optics.rt.table.WaterKey`) and one sky shape
 (:class:`SkyKey`: CIE type, polarization model, DoP maximum, Berry's δ; the sky's scale cancels,
 everything is per unit irradiance), :class:`SkyTable` holds all the scattered light of the **sky
 model's own sky** — its radiance distribution and its polarization for the sun at each of the
 table's sun nodes, through the surface's Fresnel matrix, the disc excluded — per unit sky plane
 irradiance below the surface, with its standard error and the sea's diffuse transmittance for
-that sky. :meth:`sensors.polarimeter.rt.table.LightFieldTable.frame` adds it to the sun's light.
+that sky. :meth:`sensors.polarimeter.optics.rt.table.LightFieldTable.frame` adds it to the sun's
+light.
 
 The default sky over every Jerlov type under a flat sea ships in the table's data file (prefix
 ``<type>/sky_model/``); any other sky, water or sea is computed on first use
@@ -24,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.rt import reference
-from sensors.polarimeter.rt.table import (
+from sensors.polarimeter.optics.rt import reference
+from sensors.polarimeter.optics.rt.table import (
     DATA_FILE,
     SUN_ZENITH_AIR_DEG,
     TABLE_PLANES,
@@ -37,7 +38,7 @@ from sensors.polarimeter.rt.table import (
     _smooth,
     cache_dir,
 )
-from sensors.polarimeter.sky import SkySpec
+from sensors.polarimeter.optics.sky import SkySpec
 
 FloatArray = NDArray[np.floating]
 
@@ -61,7 +62,7 @@ class SkyKey:
 
     @classmethod
     def of(cls, sky: SkySpec) -> SkyKey:
-        """From a :class:`sensors.polarimeter.sky.SkySpec`."""
+        """From a :class:`sensors.polarimeter.optics.sky.SkySpec`."""
         return cls(
             int(sky.cie_type),
             str(sky.polarization),
@@ -169,11 +170,11 @@ class SkyTable:
         """:attr:`smooth` less the reflected upwelling light in the window's bins (flat sea).
 
         As node values that conserve the bins' means (:func:`decompose.conserve`). What the
-        coarse bins keep (:mod:`sensors.polarimeter.rt.decompose`); the renderer adds
+        coarse bins keep (:mod:`sensors.polarimeter.optics.rt.decompose`); the renderer adds
         the reflection per pixel. A wavy sea keeps all of it in the bins.
         """
-        from sensors.polarimeter.rt import decompose
-        from sensors.polarimeter.rt.table import REMAINDER_POLE_ROWS, _n_inside, remainder_of
+        from sensors.polarimeter.optics.rt import decompose
+        from sensors.polarimeter.optics.rt.table import REMAINDER_POLE_ROWS, _n_inside, remainder_of
 
         rem = _smooth(
             remainder_of(self.smooth, self.water, beams=None),

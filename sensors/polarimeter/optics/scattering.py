@@ -1,7 +1,8 @@
 """The scattering phase matrix of sea water: molecules plus particles, one Mueller matrix.
 
-Both the closed-form single scattering of the renderer (:mod:`sensors.polarimeter.water`) and the
-radiative-transfer reference (:mod:`sensors.polarimeter.rt`) scatter with this matrix, so the
+Both the closed-form single scattering of the renderer (:mod:`sensors.polarimeter.optics.water`) and
+the
+radiative-transfer reference (:mod:`sensors.polarimeter.optics.rt`) scatter with this matrix, so the
 reference's optically thin limit and the renderer's single scattering are the same physics.
 
 The volume scattering function is β(Θ) = b_w p_w(Θ) + b_p p_p(Θ) and the normalised phase matrix
@@ -23,7 +24,7 @@ each element the β-weighted mean of the two components' normalised matrices:
   variation with salinity", read: pure water 0.039 ± 0.001, sea water 0.039 + a₁S with
   a₁ = 1–2 × 10⁻⁴, so 0.0425–0.046 at S = 35; the twin takes a₁ = 1.5 × 10⁻⁴). Morel's (1974)
   δ = 0.09, used here before, is the value that paper's introduction puts "at least ±50 %"
-  uncertain. δ is a water parameter (:attr:`~sensors.polarimeter.water.WaterOptics`; a
+  uncertain. δ is a water parameter (:attr:`~sensors.polarimeter.optics.water.WaterOptics`; a
   scenario's ``[water] depolarization_ratio``; 0.039 for fresh water).
 * **Particles**: the Fournier–Forand phase function (below), with the reduced Mueller matrix of
   the Voss & Fry (1984, Appl. Opt. 23:4427) ocean measurements — Rayleigh-like, all off-diagonal

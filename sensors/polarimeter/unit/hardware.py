@@ -15,10 +15,11 @@ seed, how the two differ:
   length, centring on the sensor, the projection's shape). A calibration session measures the
   unit's own lens, and the vehicle works with that (``distortion_correction``, xin2024 §2.4);
   without it the vehicle has only the datasheet's nominal equidistant model.
-* **Lens** (:class:`sensors.polarimeter.lens.LensPolarization`): the lens's own diattenuation and
+* **Lens** (:class:`sensors.polarimeter.unit.lens.LensPolarization`): the lens's own diattenuation
+  and
   retardance, growing with field angle (not drawn: the same for every unit of a lens design);
   with ``lens_compensation`` the unit is measured on the simulated bench of xin2024 §2.3
-  (:mod:`sensors.polarimeter.bench`) and the vehicle undoes what the bench found
+  (:mod:`sensors.polarimeter.unit.bench`) and the vehicle undoes what the bench found
   (:mod:`twin.onboard.lens`).
 
 Each model has an ``ideal`` form (every σ = 0), which reproduces the perfect vehicle knowledge the
@@ -65,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.lens import LensPolarization
+from sensors.polarimeter.unit.lens import LensPolarization
 from twin.core.calibration import CameraCalibration
 
 FloatArray = NDArray[np.float64]
@@ -244,7 +245,7 @@ class HardwareErrors:
 
     @property
     def benched(self) -> bool:
-        """Whether the unit's lens is measured on the bench (``sensors.polarimeter.bench``)."""
+        """Whether the unit's lens is measured on the bench (``sensors.polarimeter.unit.bench``)."""
         return self.lens_compensation and not self.lens.is_ideal
 
     @property

@@ -17,7 +17,7 @@ refracted sun before this split):
   sky light falls to 0. In clear water 1 mm below the surface this is the only scattered light
   of any size (1–5 % of the window's light at 85–90° of air incidence), and the bins made the
   thin limit miss the exact chain by up to 1.3 % in S0 and 8° in AoP. The renderer computes it
-  per pixel (:func:`sensors.polarimeter.column_kernel.reflected_at`) from the table's own
+  per pixel (:func:`sensors.polarimeter.optics.column_kernel.reflected_at`) from the table's own
   upwelling light at the surface (smooth) and the exact Fresnel matrix, for a flat sea (on a
   wavy one the facets blur the edge, and the bins keep it).
 
@@ -35,8 +35,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from sensors.polarimeter import column_kernel as ck
-from sensors.polarimeter import scattering
+from sensors.polarimeter.optics import column_kernel as ck
+from sensors.polarimeter.optics import scattering
 
 FloatArray = NDArray[np.floating]
 
@@ -272,7 +272,7 @@ _NO_LUT = np.zeros((4, 2))
 
 def beam_terms(key: object, sun_zenith_air_deg: float, n_water: float) -> tuple:
     """The once-scattered beam's constants for a table node (unit plane irradiance below)."""
-    from sensors.polarimeter.rt.reference import beam_polarization
+    from sensors.polarimeter.optics.rt.reference import beam_polarization
     from sensors.polarimeter.stokes import meridian_reference
 
     pm = scattering.phase_matrix(

@@ -15,7 +15,8 @@ use the chain's meridian convention: relative to ``stokes.meridian_reference(−
 What reaches the camera at depth z along v is the sum of three Stokes fields, all physics:
 
 1. **Direct (unscattered) sky light.** Inside Snell's window the refracted sky Stokes just below
-   the surface (from :mod:`~sensors.polarimeter.surface`) is attenuated by Beer–Lambert along the
+   the surface (from :mod:`~sensors.polarimeter.optics.surface`) is attenuated by Beer–Lambert along
+   the
    slant path L = z / v_z: S_dir = S_window · exp(−c L), c = a + b. Its polarization is untouched.
 
 2. **Single scattering of the refracted sun beam**, closed form. The beam (normal irradiance E_w
@@ -29,19 +30,22 @@ What reaches the camera at depth z along v is the sum of three Stokes fields, al
                = β(Θ) E_w μ_s exp(−c z/μ_s) / (c (μ_s − v_z)),                       v_z ≤ 0
 
    (s_max = z/v_z up to the surface; ∞ for rays at or below the horizon in deep water). Its
-   polarization is the sea-water phase matrix of :mod:`sensors.polarimeter.scattering` (molecules
+   polarization is the sea-water phase matrix of :mod:`sensors.polarimeter.optics.scattering`
+   (molecules
    with their depolarization ratio, particles with the Voss–Fry shape) applied to the beam's own
    Fresnel polarization, in the scattering plane: no depolarization factor, no effective sun.
 
 3. **Everything else that was scattered** — the sun beam scattered more than once, the scattered
    sky light, the upwelling light and its Fresnel / total internal reflection at the surface —
-   from the polarized radiative-transfer reference (:mod:`sensors.polarimeter.rt`): a Monte Carlo
+   from the polarized radiative-transfer reference (:mod:`sensors.polarimeter.optics.rt`): a Monte
+   Carlo
    solution of the vector radiative transfer equation for this water's a, b and phase matrix,
    tabulated over the refracted sun's zenith and the optical depth c z and interpolated per frame
-   (:class:`sensors.polarimeter.rt.table.LightFieldTable`). Nothing in it is fitted: where the
+   (:class:`sensors.polarimeter.optics.rt.table.LightFieldTable`). Nothing in it is fitted: where
+   the
    polarization pattern's apparent sun goes with depth is what the transport gives.
 
-The per-pixel work (2 and 3) is one compiled loop (:mod:`sensors.polarimeter.column_kernel`).
+The per-pixel work (2 and 3) is one compiled loop (:mod:`sensors.polarimeter.optics.column_kernel`).
 
 Limits, honestly: one wavelength (the water's IOPs at 500 nm by default; see docs/polarimeter.md
 for what a single band costs); homogeneous, deep water (no bottom); the closed-form single
@@ -71,24 +75,24 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sensors.polarimeter import column_kernel, scattering
-from sensors.polarimeter.rt import sky_table as rt_sky
-from sensors.polarimeter.rt import table as rt_table
-from sensors.polarimeter.scattering import (  # noqa: F401  (re-exported: the phase functions)
+from sensors.polarimeter.optics import column_kernel, scattering
+from sensors.polarimeter.optics.rt import sky_table as rt_sky
+from sensors.polarimeter.optics.rt import table as rt_table
+from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported: the phase functions)
     ff_backscatter_fraction,
     ff_slope_for_backscatter,
     fournier_forand,
     molecular_phase,
 )
-from sensors.polarimeter.sky import SkySpec
-from sensors.polarimeter.stokes import meridian_reference
-from sensors.polarimeter.surface import (
+from sensors.polarimeter.optics.sky import SkySpec
+from sensors.polarimeter.optics.surface import (
     CHUNK,
     as_rotation,
     exp_into,
     flatten_directions,
     world_components,
 )
+from sensors.polarimeter.stokes import meridian_reference
 
 FloatArray = NDArray[np.floating]
 

@@ -1,6 +1,7 @@
 """Marine snow: suspended aggregates as bright, depolarizing points in the camera's view.
 
-World side; the companion of :mod:`sensors.polarimeter.bubbles` (same drawing, same light, same
+World side; the companion of :mod:`sensors.polarimeter.optics.bubbles` (same drawing, same light,
+same
 way into a pixel). Marine snow — aggregates of detritus, mucus and plankton larger than 0.5 mm —
 drifts through the whole mixed layer. A sun-lit aggregate near the camera is an unresolved point
 brighter than the water behind it, an outlier for a compass that reads pixels.
@@ -38,7 +39,7 @@ from typing import Literal
 
 import numpy as np
 
-from sensors.polarimeter.bubbles import BubbleDraw
+from sensors.polarimeter.optics.bubbles import BubbleDraw
 
 ParticleModel = Literal["marine_snow", "ideal"]
 PARTICLE_MODELS: tuple[str, ...] = ("marine_snow", "ideal")

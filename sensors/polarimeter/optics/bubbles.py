@@ -211,7 +211,8 @@ def bubble_radiance(
     """Each drawn point's radiant intensity towards the camera and its range.
 
     Args:
-        draw: The frame's bubbles (or other point scatterers: ``sensors.polarimeter.particles``).
+        draw: The frame's bubbles (or other point scatterers:
+            ``sensors.polarimeter.optics.particles``).
         sun_look: (3,) ENU direction towards the refracted sun (in water).
         e_sun_normal: The refracted beam's normal irradiance just below the surface.
         c_per_m: The water's beam attenuation.

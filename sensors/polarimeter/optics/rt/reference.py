@@ -1,6 +1,7 @@
 """The polarized radiative-transfer reference: Stokes radiance over in-water directions at depth.
 
-``solve(water, source=...)`` runs the forward Monte Carlo of :mod:`sensors.polarimeter.rt.kernel`
+``solve(water, source=...)`` runs the forward Monte Carlo of
+:mod:`sensors.polarimeter.optics.rt.kernel`
 for one water body and one source — the refracted sun beam at an in-water zenith angle, or the
 sky's light through the surface (the sky model's radiance and polarization for that sun, or a
 uniform unpolarized sky) — and returns a :class:`LightField`: the Stokes radiance (I, Q, U) of the
@@ -10,7 +11,8 @@ depth planes, split into the once-scattered light and the rest, with its Monte C
 error from independent batches; the up- and downwelling irradiances (direct light included) at
 every plane, from the photons' plane crossings; and the energy budget.
 
-Radiance is scored by binned plane crossings (:mod:`~sensors.polarimeter.rt.kernel` says why):
+Radiance is scored by binned plane crossings (:mod:`~sensors.polarimeter.optics.rt.kernel` says
+why):
 a bin's value is the flux its photons carry through the plane divided by ∫_bin |cos θ| dΩ (its
 |μ|-weighted mean radiance, finite even in the bins at the horizon). The bins are coarse (3–10° in
 look zenith, 15° in azimuth) because the scattered light they hold is smooth: the sharp parts —
@@ -27,7 +29,8 @@ deepest plane even in the most scattering water), a flat surface with index n (F
 of the upwelling light from below, total internal reflection beyond the critical angle) or a
 Cox–Munk sea (isotropic Gaussian slopes for a wind speed; the light enters through, and is
 reflected from below by, facets drawn with their projected areas; no wave shadowing), the
-phase matrix of :mod:`sensors.polarimeter.scattering`. One wavelength: the water's IOPs are given
+phase matrix of :mod:`sensors.polarimeter.optics.scattering`. One wavelength: the water's IOPs are
+given
 at one wavelength, and the result is for that wavelength.
 """
 
@@ -40,10 +43,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter import scattering
-from sensors.polarimeter.rt import kernel
-from sensors.polarimeter.sky import SkySpec, sky_radiance
-from sensors.polarimeter.surface import N_AIR, cox_munk_variances, fresnel_elements
+from sensors.polarimeter.optics import scattering
+from sensors.polarimeter.optics.rt import kernel
+from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
+from sensors.polarimeter.optics.surface import N_AIR, cox_munk_variances, fresnel_elements
 
 FloatArray = NDArray[np.floating]
 
@@ -362,7 +365,7 @@ def solve(
             the sun at ``sun_zenith_air_deg``); None: a uniform unpolarized sky.
         wind_speed_mps: Wind at 12.5 m for a Cox–Munk sea (clean surface, isotropic with the
             total mean square slope σ_c² + σ_u² of
-            :func:`sensors.polarimeter.surface.cox_munk_variances`); 0 = a flat sea.
+            :func:`sensors.polarimeter.optics.surface.cox_munk_variances`); 0 = a flat sea.
         n_water: Water index.
         grid: Scoring planes and nodes (default :class:`Grid`).
         photons: Histories in all (split over ``batches``).

@@ -66,7 +66,8 @@ Housing (``FisheyeSpec.housing``)
   in-water rays beyond the critical angle asin(n_a/n_w) never reach the lens (optics.md §2.4).
   :func:`flat_port_refraction` / :func:`flat_port_inverse` map the directions, :class:`PortRays`
   carries the per-pixel angles and indices of both interfaces — the boundary to the Fresnel
-  transmission Mueller matrices of :mod:`sensors.polarimeter.surface`, which the renderer applies
+  transmission Mueller matrices of :mod:`sensors.polarimeter.optics.surface`, which the renderer
+  applies
   in each interface's plane of incidence (the plane through the ray and the camera z axis:
   ``stokes.meridian_reference(d, up=(0, 0, 1))`` in the camera frame).
 
@@ -412,7 +413,8 @@ PRESETS: dict[str, FisheyeSpec] = {
     # measured departure of another fisheye, the TUM VI benchmark's cam0 (Schubert et al. 2018,
     # IROS; 195 deg; Kalibr's equidistant model, the same theta polynomial as here) [uncertain:
     # another lens]: -1.0 % of the radius at 90 deg, +0.2 % at 45 deg. It matters only to a vehicle
-    # that does not correct distortion (sensors/polarimeter/hardware.py, distortion_correction):
+    # that does not correct distortion (sensors/polarimeter/unit/hardware.py,
+    # distortion_correction):
     # a calibrated unit knows it.
     "phx050s_fe185c046": FisheyeSpec(
         name="phx050s_fe185c046",
@@ -561,7 +563,8 @@ class PortRays:
         """The interfaces in the light's order, each ``(n_i, n_t, cos_i, cos_t)``.
 
         For a flat port: outside→glass, then glass→housing gas. The renderer applies the Fresnel
-        transmission Mueller matrix (``sensors.polarimeter.surface``) and the n² radiance law for
+        transmission Mueller matrix (``sensors.polarimeter.optics.surface``) and the n² radiance law
+        for
         each, in the plane-of-incidence basis ``stokes.meridian_reference(d, up=(0, 0, 1))`` (camera
         frame; d = −direction). A dome is at normal incidence: no interfaces listed here.
         """
@@ -865,7 +868,7 @@ class Camera:
 
         The common case of the renderer: ``stokes`` (H, W, 3) of the light reaching each pixel
         along −(C · ray), referenced to the ENU local meridian of that direction — what
-        :func:`sensors.polarimeter.sky.sky_radiance` returns for ``dirs=camera.rays,
+        :func:`sensors.polarimeter.optics.sky.sky_radiance` returns for ``dirs=camera.rays,
         rotation=C``, and what a flat sea surface or a dome keeps. Same result as
         :meth:`to_sensor_stokes` with that reference, for the meridional mapping, without building
         any reference vectors: with up_c = Cᵀẑ (the world vertical in the camera frame) and the

@@ -2,7 +2,7 @@
 
 For one water body (a, b_w, b_p, b_bp/b_p at one wavelength; the optical depth c z and the
 single-scattering albedo b/c follow from them) the table holds, from
-:func:`sensors.polarimeter.rt.reference.solve`:
+:func:`sensors.polarimeter.optics.rt.reference.solve`:
 
 * ``sun``: the **multiply scattered** Stokes radiance of the refracted sun beam (everything but the
   direct beam and the closed-form single scattering the renderer computes itself), per unit
@@ -14,7 +14,8 @@ single-scattering albedo b/c follow from them) the table holds, from
   the sun field's radiance;
 
 and, per sky model, all the scattered light of the sky model's own sky at the same sun nodes
-(:mod:`sensors.polarimeter.rt.sky_table`). The renderer's direct sky light is exact; its scattered
+(:mod:`sensors.polarimeter.optics.rt.sky_table`). The renderer's direct sky light is exact; its
+scattered
 part comes from there. (Replacing the sky by a uniform unpolarized one of the same irradiance, as
 this table did before, dilutes the window's polarization: at 2 m in Jerlov II the scattered sky
 light inside the window has a flux-weighted DoP of 0.22 from the Rayleigh sky, 0.015 from the
@@ -26,9 +27,9 @@ held and E_d decays at the deepest planes' rate — the asymptotic regime), and 
 :class:`FrameField` the per-pixel kernel samples bilinearly, never across Snell's window edge
 (the upwelling light's total internal reflection makes a step there).
 
-Tables for the Jerlov types (:data:`sensors.polarimeter.water.JERLOV_500NM`, turbidity 1) and
-the default sky (:class:`sensors.polarimeter.sky.SkySpec`) ship in
-``sensors/polarimeter/data/lightfield_jerlov_500nm.npz``, built by
+Tables for the Jerlov types (:data:`sensors.polarimeter.optics.water.JERLOV_500NM`, turbidity 1) and
+the default sky (:class:`sensors.polarimeter.optics.sky.SkySpec`) ship in
+``sensors/polarimeter/optics/data/lightfield_jerlov_500nm.npz``, built by
 ``python benchmarks/build_lightfield_table.py``; any other water, or another sky, is computed on
 first use (a minute or two on one core for most waters; a sky alone, a fraction of that) and
 cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
@@ -53,11 +54,11 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter import scattering
-from sensors.polarimeter.rt import decompose, reference
+from sensors.polarimeter.optics import scattering
+from sensors.polarimeter.optics.rt import decompose, reference
 
 if TYPE_CHECKING:
-    from sensors.polarimeter.rt.sky_table import SkyTable
+    from sensors.polarimeter.optics.rt.sky_table import SkyTable
 
 FloatArray = NDArray[np.floating]
 
@@ -97,7 +98,8 @@ class WaterKey:
 
     ``wind_speed_mps`` is one of :data:`WIND_NODES_MPS` (the renderer interpolates between
     them): the Cox–Munk sea of the reference (0 = flat). ``particle_dop_max`` and
-    ``depolarization_ratio`` are the phase matrix's P and δ (:mod:`sensors.polarimeter.scattering`).
+    ``depolarization_ratio`` are the phase matrix's P and δ
+    (:mod:`sensors.polarimeter.optics.scattering`).
     """
 
     a_per_m: float
@@ -110,7 +112,7 @@ class WaterKey:
 
     @classmethod
     def of(cls, water: object, wind_speed_mps: float = 0.0) -> WaterKey:
-        """From a :class:`sensors.polarimeter.water.WaterOptics` (and a wind node)."""
+        """From a :class:`sensors.polarimeter.optics.water.WaterOptics` (and a wind node)."""
         return cls(
             round(float(water.a_per_m), 9),  # type: ignore[attr-defined]
             round(float(water.b_molecular_per_m), 9),  # type: ignore[attr-defined]
@@ -169,7 +171,7 @@ class FrameField:
             row: none.
 
     :attr:`inside` and :attr:`outside` hold the remainder: the table's light less the aureole
-    and the reflection (:mod:`sensors.polarimeter.rt.decompose`), which the kernel adds back.
+    and the reflection (:mod:`sensors.polarimeter.optics.rt.decompose`), which the kernel adds back.
     """
 
     inside: FloatArray
@@ -351,7 +353,7 @@ class LightFieldTable:
     def remainder(self) -> FloatArray:
         """The smoothed sun field less the aureole's and the reflection's bin means.
 
-        (:mod:`sensors.polarimeter.rt.decompose`; the reflection on a flat sea only.)
+        (:mod:`sensors.polarimeter.optics.rt.decompose`; the reflection on a flat sea only.)
         """
         rem = _smooth(self.sun, self.n_phi).astype(np.float64)
         edges = self.theta_edges_deg
@@ -406,7 +408,8 @@ class LightFieldTable:
             e_sky_plane: Downwelling plane irradiance of the sky just below the surface.
             n_water: This frame's index: the sun zenith is mapped to the table's water by the
                 ratio of the critical angles, so that a grazing sun stays grazing.
-            sky: The sky model's table (:func:`~sensors.polarimeter.rt.sky_table.sky_table_for`);
+            sky: The sky model's table
+                (:func:`~sensors.polarimeter.optics.rt.sky_table.sky_table_for`);
                 None: the uniform unpolarized
                 sky (a night sky).
         """

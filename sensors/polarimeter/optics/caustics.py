@@ -7,7 +7,8 @@ flicker of the water's sun-lit path radiance (and of the bubbles the beam lights
 sky it sees through Snell's window, whose wobble the wavy surface already gives.
 
 **Model: geometric optics on the twin's own wave field.** A regular lattice of entry points p
-(``oversample``² per cell of :class:`~sensors.polarimeter.surface.WaveSurface`'s periodic grid)
+(``oversample``² per cell of :class:`~sensors.polarimeter.optics.surface.WaveSurface`'s periodic
+grid)
 carries equal shares of the beam's flux through the mean surface (the flux through a horizontal
 area is E cos θ_sun whatever the facet's tilt), weighted by each facet's Fresnel transmittance.
 Each share is refracted by its facet's normal into t(p) and lands at depth z at
@@ -40,7 +41,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter import surface as surface_mod
+from sensors.polarimeter.optics import surface as surface_mod
 
 FlickerModel = Literal["caustics", "ideal"]
 FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")

@@ -1,6 +1,6 @@
 """What a datasheet says about a DoFP polarization sensor: the spec and the presets.
 
-Split from :mod:`sensors.polarimeter.mosaic` (which re-exports everything here): the sensor's
+Split from :mod:`sensors.polarimeter.unit.mosaic` (which re-exports everything here): the sensor's
 figures and their sources, apart from the model that exposes it (the measurement model and the
 noise are described there).
 """

@@ -1,6 +1,7 @@
 """The sensor's per-pixel passes (numba): expected charge, then noise, gain and the ADC.
 
-Stage 7 of the polarimeter chain, the arithmetic of :class:`sensors.polarimeter.mosaic.DoFPSensor`
+Stage 7 of the polarimeter chain, the arithmetic of
+:class:`sensors.polarimeter.unit.mosaic.DoFPSensor`
 in two compiled loops over a band of pixels, in place of five OpenCV/numpy passes
 (``cv2.multiply`` + ``cv2.transform``; ``np.add`` + ``np.sqrt`` + ``cv2.accumulateProduct`` +
 ``cv2.addWeighted`` + ``cv2.min``). Why: each of those streams the band through memory once; the

@@ -11,7 +11,7 @@ Input contract (``stokes``, shape (H, W, 3), float32 preferred):
   band radiance (W m⁻² sr⁻¹) with the camera equation.
 * Reference: the CAMERA IMAGE +u axis (the direction of increasing column); angles turn from it
   towards +v (increasing row), clockwise on a display with row 0 on top. That is exactly the
-  sensor-plane Stokes of :mod:`sensors.polarimeter.camera` (reference +x = +u, light travelling
+  sensor-plane Stokes of :mod:`sensors.polarimeter.unit.camera` (reference +x = +u, light travelling
   along −z, the :mod:`sensors.polarimeter.stokes` convention; e.g.
   ``Camera.sensor_stokes_from_meridian``): the caller must rotate each pixel's Stokes vector into
   that reference. The analyser angles of ``layout_deg`` are counted in the same sense, and so is
@@ -67,7 +67,8 @@ VM: numpy's ``Generator.poisson`` takes 47 ns a sample at λ = 1000 and 91 ns at
   constructor (numpy); temporal noise per frame from the Generator given to the frame call.
 
 Work is done in bands of rows so the temporaries stay in cache; the per-pixel arithmetic runs in
-two compiled passes (:mod:`sensors.polarimeter.mosaic_kernel`: the OpenCV chain's raw frames bit
+two compiled passes (:mod:`sensors.polarimeter.unit.mosaic_kernel`: the OpenCV chain's raw frames
+bit
 for bit). Measured on one core of the shared dev VM, 2026-12-06
 (``benchmarks/results/polarimeter_frame.md``, median of 3 rounds): 24.5 ms a 2448×2048 frame
 (30.8 ms with the OpenCV chain), of which ~18 ms draw 5 M normals; 1.5 ms a 612×512 frame (1.9).
@@ -91,8 +92,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 # The spec and presets live in sensor_spec.py; re-exported here, where users import them.
-from sensors.polarimeter import mosaic_kernel as mk
-from sensors.polarimeter.sensor_spec import (
+from sensors.polarimeter.unit import mosaic_kernel as mk
+from sensors.polarimeter.unit.sensor_spec import (
     IMX250MZR_LAYOUT_DEG,
     PRESETS,
     PolarizationSensorSpec,
@@ -165,7 +166,7 @@ class DoFPSensor:
         rng: Generator for the manufacturing fixed pattern (orientation errors, PRNU, DSNU,
             hot pixels), drawn once here, in that order, skipping any whose σ is 0.
         optics: Optional function folding what lies between the light the caller describes and
-            the analysers (the lens's own polarization, ``sensors.polarimeter.lens``) into the
+            the analysers (the lens's own polarization, ``sensors.polarimeter.unit.lens``) into the
             (H, W, 3) analysis vectors: a ↦ a·M per pixel, M the optics' Mueller matrix on
             (S0, S1, S2) in the sensor frame. Applied once, after the crosstalk, so a frame
             costs nothing more.

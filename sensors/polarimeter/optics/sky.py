@@ -1,7 +1,7 @@
 """Stage 3 of the polarimeter chain: radiance and polarization of the sky above the sea surface.
 
 Evaluated for arrays of sky directions ``p`` (unit vectors from the observer towards the sky point,
-ENU, z ≥ 0) given the apparent sun direction ``s`` (:mod:`sensors.polarimeter.sun`).
+ENU, z ≥ 0) given the apparent sun direction ``s`` (:mod:`sensors.polarimeter.optics.sun`).
 
 Radiance — CIE standard general sky (CIE S 011/E:2003 = ISO 15469:2004; optics.md §1.5)
 ---------------------------------------------------------------------------------------
@@ -70,7 +70,7 @@ so Q = I·DoP_max (a² − b²) / ((1 + cos²γ) ρ²), U = I·DoP_max 2ab / ((1
 in float32 near the zenith.
 
 Night and the horizon: when the sun's apparent elevation is below
-:data:`sensors.polarimeter.sun.NIGHT_ELEVATION_DEG`, the sky is dark: I = ``night_radiance``
+:data:`sensors.polarimeter.optics.sun.NIGHT_ELEVATION_DEG`, the sky is dark: I = ``night_radiance``
 (default 0), Q = U = 0. Directions below the horizon (p_z < 0) see no sky: I = Q = U = 0.
 Nothing returns NaN for unit inputs.
 
@@ -80,7 +80,8 @@ in the input dtype (float32 for rendering, float64 for the 1e-6 tests). Directio
 any frame F with ``rotation`` = C_F^n (e.g. camera rays and the camera attitude): the rotation is
 applied block by block, so no world-ray frame is ever written to memory; pass ``out=`` to reuse
 the output frame. exp is OpenCV's and float32 arccos a polynomial
-(:func:`~sensors.polarimeter.surface.exp_into`, :func:`~sensors.polarimeter.surface.arccos_into`:
+(:func:`~sensors.polarimeter.optics.surface.exp_into`,
+:func:`~sensors.polarimeter.optics.surface.arccos_into`:
 numpy's float32 versions are ~5× and ~3× slower here). Cost is ~20–30 ns a direction for
 Rayleigh + a CIE clear sky on one core of the development VM, about 1.7× that for Berry: the
 renderer evaluates the smooth sky on a coarse grid and exactly only where it is not smooth
@@ -98,8 +99,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import chndtr
 
 from sensors.polarimeter import stokes as stokes_mod
-from sensors.polarimeter.sun import NIGHT_ELEVATION_RAD, SunPosition
-from sensors.polarimeter.surface import arccos_into, exp_into, is_rotation
+from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition
+from sensors.polarimeter.optics.surface import arccos_into, exp_into, is_rotation
 
 FloatArray = NDArray[np.floating]
 
