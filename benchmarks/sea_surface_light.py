@@ -31,7 +31,8 @@ import numpy as np
 import sensors
 from sensors.polarimeter.optics.bubbles import A_MAX_M, BubblePopulation
 from sensors.polarimeter.optics.caustics import CausticField
-from sensors.polarimeter.optics.surface import WaveSurface, WindSea, water_index
+from sensors.polarimeter.optics.surface import water_index
+from sensors.polarimeter.optics.waves import WaveSurface, WindSea
 from sensors.polarimeter.render import OpticsConfig
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -60,6 +60,7 @@ from sensors.polarimeter.optics import caustics as caustics_mod
 from sensors.polarimeter.optics import particles as particles_mod
 from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.optics import water as water_mod
+from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import sky_radiance
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
 
@@ -314,7 +315,7 @@ class Polarimeter(Sensor):
         self._tracker: SunTracker | None = None
         self._tracker_place: tuple[int, int] | None = None
         self._dofp: mosaic_mod.DoFPSensor | None = None
-        self._waves: surface_mod.WaveSurface | None = None
+        self._waves: waves_mod.WaveSurface | None = None
         self._bubble_rng: np.random.Generator | None = None
         self._particle_rng: np.random.Generator | None = None
         # This frame's caustic field and the camera's (East, North), for the bubbles it lights.
@@ -490,7 +491,7 @@ class Polarimeter(Sensor):
         seeds = rng.spawn(5)
         self._dofp = self._new_sensor(seeds[0])
         sea = self._sea()
-        self._waves = None if sea.flat else surface_mod.WaveSurface(sea, seeds[1])
+        self._waves = None if sea.flat else waves_mod.WaveSurface(sea, seeds[1])
         self.unit = self.draw_unit(seeds[2]) if self.hardware.drawn else None
         self._bubble_rng = seeds[3]
         self._particle_rng = seeds[4]
@@ -584,15 +585,15 @@ class Polarimeter(Sensor):
         if self._waves is None:
             if self.optics.wind_speed_mps <= 0.0:
                 return
-            self._waves = surface_mod.WaveSurface(self._sea(), rng.spawn(1)[0])
+            self._waves = waves_mod.WaveSurface(self._sea(), rng.spawn(1)[0])
             self._last_t = t
         if self._last_t is not None and t > self._last_t:
             self._waves.step(t - self._last_t)
         self._last_t = t
 
-    def _sea(self) -> surface_mod.WindSea:
+    def _sea(self) -> waves_mod.WindSea:
         o = self.optics
-        return surface_mod.WindSea(
+        return waves_mod.WindSea(
             wind_speed_mps=o.wind_speed_mps, wind_dir_rad=math.radians(90.0 - o.wind_toward_deg)
         )
 

@@ -21,6 +21,7 @@ from sensors.polarimeter.optics import particles as particles_mod
 from sensors.polarimeter.optics import scattering as scattering_mod
 from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.optics import water as water_mod
+from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.unit import camera as camera_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
@@ -96,7 +97,7 @@ class OpticsConfig:
         # The stage constructors validate the rest (turbidity, index ranges, wind speed).
         self.water()
         surface_mod.water_index(self.salinity_psu, self.temperature_c, self.wavelength_nm)
-        surface_mod.cox_munk_variances(self.wind_speed_mps)
+        waves_mod.cox_munk_variances(self.wind_speed_mps)
 
     def water(self) -> water_mod.WaterOptics:
         """The water's optical properties (type, turbidity, P and δ)."""

@@ -7,7 +7,7 @@ flicker of the water's sun-lit path radiance (and of the bubbles the beam lights
 sky it sees through Snell's window, whose wobble the wavy surface already gives.
 
 **Model: geometric optics on the twin's own wave field.** A regular lattice of entry points p
-(``oversample``² per cell of :class:`~sensors.polarimeter.optics.surface.WaveSurface`'s periodic
+(``oversample``² per cell of :class:`~sensors.polarimeter.optics.waves.WaveSurface`'s periodic
 grid)
 carries equal shares of the beam's flux through the mean surface (the flux through a horizontal
 area is E cos θ_sun whatever the facet's tilt), weighted by each facet's Fresnel transmittance.
@@ -20,7 +20,7 @@ pattern). Multiple facets focusing on one point (beyond the first caustic) are s
 flux counting does by itself. The regular lattice has no Poisson noise: with a flat sea every
 cell receives the same share exactly.
 
-Limits (those of the slope field, ``surface.WaveSurface``): slopes only (no elevation), Gaussian
+Limits (those of the slope field, ``waves.WaveSurface``): slopes only (no elevation), Gaussian
 statistics, decimetre correlation length (a modelling choice there, and the caustics' scale
 follows it), no travelling waves. Rays are straight below the surface (the beam's own
 scattering blurs caustics with depth in real water; not modelled, so deep flicker is an upper
@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics import waves as waves_mod
 
 FlickerModel = Literal["caustics", "ideal"]
 FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")
@@ -63,7 +64,7 @@ class CausticField:
 
     def __init__(
         self,
-        waves: surface_mod.WaveSurface,
+        waves: waves_mod.WaveSurface,
         sun_enu: NDArray[np.float64],
         n_water: float,
         max_depth_m: float,
@@ -85,7 +86,7 @@ class CausticField:
         # Entry points at the centres of an m × m lattice over the periodic grid.
         c = (np.arange(m) + 0.5) * (self.period_m / m)
         px, py = np.meshgrid(c, c, indexing="ij")
-        normals = surface_mod.slopes_to_normals(waves.slopes_at(px, py).astype(np.float64))
+        normals = waves_mod.slopes_to_normals(waves.slopes_at(px, py).astype(np.float64))
         d_in = np.broadcast_to(-s, normals.shape)
         ref = surface_mod.refract(d_in, normals, 1.0, n_water)
         t = ref.directions

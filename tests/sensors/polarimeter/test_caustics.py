@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import sensors
-from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.caustics import CausticField
 from sensors.polarimeter.render import OpticsConfig
 
@@ -19,13 +19,13 @@ SUN = np.array([math.cos(math.radians(40)), 0.0, math.sin(math.radians(40))])
 class _Sinusoid:
     """A slope field with one sinusoid along East: the lens whose focus geometry is known.
 
-    Stands in for :class:`~sensors.polarimeter.optics.surface.WaveSurface` (the field uses only
+    Stands in for :class:`~sensors.polarimeter.optics.waves.WaveSurface` (the field uses only
     ``sea``
     and ``slopes_at``); amplitude 0 is a flat sea.
     """
 
     def __init__(self, amplitude: float, cycles: int) -> None:
-        self.sea = surface_mod.WindSea(wind_speed_mps=5.0)
+        self.sea = waves_mod.WindSea(wind_speed_mps=5.0)
         self.k = 2 * math.pi * cycles / (self.sea.grid_size * self.sea.cell_m)
         self.amplitude = amplitude
 
@@ -68,8 +68,8 @@ def test_a_sinusoidal_sea_focuses_as_geometric_optics_says():
 
 
 def test_a_wind_sea_flickers_more_with_depth_and_keeps_its_mean():
-    sea = surface_mod.WindSea(wind_speed_mps=8.5)
-    waves = surface_mod.WaveSurface(sea, np.random.default_rng(2))
+    sea = waves_mod.WindSea(wind_speed_mps=8.5)
+    waves = waves_mod.WaveSurface(sea, np.random.default_rng(2))
     cf = CausticField(waves, SUN, N_WATER, 10.0, levels=11)
     cv = cf.fields.reshape(cf.fields.shape[0], -1).std(axis=1)
     means = cf.fields.reshape(cf.fields.shape[0], -1).mean(axis=1)
@@ -81,7 +81,7 @@ def test_a_wind_sea_flickers_more_with_depth_and_keeps_its_mean():
     assert np.all(cf.fields >= 0)
     # Same sea, same field.
     again = CausticField(
-        surface_mod.WaveSurface(sea, np.random.default_rng(2)), SUN, N_WATER, 10.0, levels=11
+        waves_mod.WaveSurface(sea, np.random.default_rng(2)), SUN, N_WATER, 10.0, levels=11
     )
     np.testing.assert_array_equal(again.fields, cf.fields)
 

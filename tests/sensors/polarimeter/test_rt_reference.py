@@ -16,6 +16,7 @@ import pytest
 from sensors.polarimeter import stokes as st
 from sensors.polarimeter.optics import surface as sf
 from sensors.polarimeter.optics import water as wa
+from sensors.polarimeter.optics import waves as wv
 from sensors.polarimeter.optics.rt import reference as rf
 from sensors.polarimeter.optics.sky import SkySpec
 
@@ -254,7 +255,7 @@ def test_the_rough_sea_lets_in_the_cox_munk_facet_average():
     """The photons' mean facet transmittance = the Cox–Munk average by quadrature over slopes."""
     za, wind = 82.0, 10.0
     lf = _solve("II", sun_zenith_air_deg=za, photons=40_000, seed=4, wind_speed_mps=wind)
-    sigma = math.sqrt(0.5 * sum(sf.cox_munk_variances(wind)))
+    sigma = math.sqrt(0.5 * sum(wv.cox_munk_variances(wind)))
     z = np.linspace(-6 * sigma, 6 * sigma, 801)
     zx, zy = np.meshgrid(z, z)
     pdf = np.exp(-(zx**2 + zy**2) / (2 * sigma**2))

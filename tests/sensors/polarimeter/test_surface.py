@@ -9,6 +9,7 @@ import pytest
 
 from sensors.polarimeter import stokes as st
 from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import waves as wv
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -251,7 +252,7 @@ def test_wavy_transmission_agrees_with_the_general_path_and_moves_the_window_edg
     n = 1.34
     rng = np.random.default_rng(7)
     look = _random_dirs(rng, 2000, zmin=0.0)
-    normals = sf.slopes_to_normals(rng.normal(0.0, 0.15, (2000, 2)))
+    normals = wv.slopes_to_normals(rng.normal(0.0, 0.15, (2000, 2)))
     tr = sf.surface_transmission(look, n, normals=normals)
     sky = np.stack([np.ones(2000), rng.uniform(-0.4, 0.4, 2000), rng.uniform(-0.4, 0.4, 2000)], -1)
     sd = tr.sky_directions()
@@ -286,30 +287,30 @@ def test_refracted_sun_beam():
 
 
 def test_cox_munk_variances_and_density():
-    var_c, var_u = sf.cox_munk_variances(10.0)
+    var_c, var_u = wv.cox_munk_variances(10.0)
     assert (var_c, var_u) == pytest.approx((0.003 + 1.92e-3 * 10.0, 3.16e-3 * 10.0))
     # ... whose sum is within 1 % of Cox & Munk's separate isotropic fit.
     assert var_c + var_u == pytest.approx(0.003 + 5.12e-3 * 10.0, rel=0.01)
-    assert sf.cox_munk_variances(10.0, slick=True) == pytest.approx((0.0114, 0.0128))
-    assert sf.cox_munk_variances(0.0) == (0.0, 0.0)  # glassy sea
+    assert wv.cox_munk_variances(10.0, slick=True) == pytest.approx((0.0114, 0.0128))
+    assert wv.cox_munk_variances(0.0) == (0.0, 0.0)  # glassy sea
     with pytest.raises(ValueError, match="wind_speed_mps"):
-        sf.cox_munk_variances(-1.0)
+        wv.cox_munk_variances(-1.0)
     # The Gram–Charlier density integrates to 1 and its Gaussian part has the σ².
     g = np.linspace(-1.2, 1.2, 801)
     zx, zy = np.meshgrid(g, g, indexing="ij")
-    p = sf.cox_munk_pdf(zx, zy, 8.0)
+    p = wv.cox_munk_pdf(zx, zy, 8.0)
     da = (g[1] - g[0]) ** 2
     assert float(p.sum() * da) == pytest.approx(1.0, abs=2e-3)
-    var_c, var_u = sf.cox_munk_variances(8.0)
+    var_c, var_u = wv.cox_munk_variances(8.0)
     assert float((p * zx * zx).sum() * da) == pytest.approx(var_c, rel=0.02)
     assert float((p * zy * zy).sum() * da) == pytest.approx(var_u, rel=0.02)
 
 
 def test_wave_field_statistics_seed_and_time_correlation():
-    sea = sf.WindSea(wind_speed_mps=7.0, wind_dir_rad=0.6, correlation_time_s=0.5)
+    sea = wv.WindSea(wind_speed_mps=7.0, wind_dir_rad=0.6, correlation_time_s=0.5)
     var_c, var_u = sea.slope_variances
     # Slope variances along the wind axes match Cox–Munk, over independent frames.
-    ws = sf.WaveSurface(sea, np.random.default_rng(8))
+    ws = wv.WaveSurface(sea, np.random.default_rng(8))
     u_hat = np.array([math.cos(0.6), math.sin(0.6)])
     c_hat = np.array([-math.sin(0.6), math.cos(0.6)])
     zu, zc = [], []
@@ -320,8 +321,8 @@ def test_wave_field_statistics_seed_and_time_correlation():
     assert np.var(np.array(zu)) == pytest.approx(var_u, rel=0.05)
     assert np.var(np.array(zc)) == pytest.approx(var_c, rel=0.05)
     # Same seed ⇒ same field, step for step.
-    a = sf.WaveSurface(sea, np.random.default_rng(9))
-    b = sf.WaveSurface(sea, np.random.default_rng(9))
+    a = wv.WaveSurface(sea, np.random.default_rng(9))
+    b = wv.WaveSurface(sea, np.random.default_rng(9))
     a.step(0.1)
     b.step(0.1)
     np.testing.assert_array_equal(a.slopes, b.slopes)
@@ -337,20 +338,20 @@ def test_wave_field_statistics_seed_and_time_correlation():
 
 def test_calm_sea_is_exactly_flat_and_waves_distort_the_window():
     look = _random_dirs(np.random.default_rng(10), 500, zmin=0.0)
-    calm = sf.WaveSurface(sf.WindSea(wind_speed_mps=0.0), np.random.default_rng(11))
+    calm = wv.WaveSurface(wv.WindSea(wind_speed_mps=0.0), np.random.default_rng(11))
     assert np.all(calm.slopes == 0.0)
     nrm = calm.normals_for_rays(look, (3.0, -2.0), 5.0)
     np.testing.assert_array_equal(nrm, np.broadcast_to([0.0, 0.0, 1.0], look.shape))
     flat = sf.surface_transmission(look, 1.34)
     calm_tr = sf.surface_transmission(look, 1.34, normals=nrm)
     np.testing.assert_allclose(calm_tr.storage, flat.storage, atol=1e-12)
-    windy = sf.WaveSurface(sf.WindSea(wind_speed_mps=10.0), np.random.default_rng(11))
+    windy = wv.WaveSurface(wv.WindSea(wind_speed_mps=10.0), np.random.default_rng(11))
     nw = windy.normals_for_rays(look, (0.0, 0.0), 5.0)
     assert np.all(np.isfinite(nw)) and np.allclose(np.linalg.norm(nw, axis=-1), 1.0)
     tilt = np.degrees(np.arccos(nw[:, 2]))
     assert 1.0 < tilt.mean() < 20.0
     with pytest.raises(ValueError, match="cell_m"):
-        sf.WindSea(wind_speed_mps=5.0, cell_m=1.0)
+        wv.WindSea(wind_speed_mps=5.0, cell_m=1.0)
 
 
 # ---- flat port ------------------------------------------------------------------------------

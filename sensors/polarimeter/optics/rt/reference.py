@@ -46,7 +46,8 @@ from numpy.typing import NDArray
 from sensors.polarimeter.optics import scattering
 from sensors.polarimeter.optics.rt import kernel
 from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
-from sensors.polarimeter.optics.surface import N_AIR, cox_munk_variances, fresnel_elements
+from sensors.polarimeter.optics.surface import N_AIR, fresnel_elements
+from sensors.polarimeter.optics.waves import cox_munk_variances
 
 FloatArray = NDArray[np.floating]
 
@@ -365,7 +366,7 @@ def solve(
             the sun at ``sun_zenith_air_deg``); None: a uniform unpolarized sky.
         wind_speed_mps: Wind at 12.5 m for a Cox–Munk sea (clean surface, isotropic with the
             total mean square slope σ_c² + σ_u² of
-            :func:`sensors.polarimeter.optics.surface.cox_munk_variances`); 0 = a flat sea.
+            :func:`sensors.polarimeter.optics.waves.cox_munk_variances`); 0 = a flat sea.
         n_water: Water index.
         grid: Scoring planes and nodes (default :class:`Grid`).
         photons: Histories in all (split over ``batches``).
