@@ -59,6 +59,7 @@ from sensors.polarimeter.optics import bubbles as bubbles_mod
 from sensors.polarimeter.optics import caustics as caustics_mod
 from sensors.polarimeter.optics import particles as particles_mod
 from sensors.polarimeter.optics import surface as surface_mod
+from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import sky_radiance
@@ -70,6 +71,7 @@ from sensors.polarimeter.unit import bench as bench_mod
 from sensors.polarimeter.unit import camera as camera_mod
 from sensors.polarimeter.unit import lens as lens_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
+from sensors.polarimeter.unit import port as port_mod
 from sensors.polarimeter.unit.calibration import calibration_from_spec
 from sensors.polarimeter.unit.hardware import HardwareErrors, HardwareUnit
 from sensors.registry import register
@@ -775,7 +777,7 @@ class Polarimeter(Sensor):
             normals = None
             if self._waves is not None:
                 normals = self._waves.normals_for_rays(rays, pos[:2], depth_m, rotation=c_cn)
-            trans = surface_mod.surface_transmission(
+            trans = transmission_mod.surface_transmission(
                 rays, self.n_water, rotation=c_cn, normals=normals
             )
             sky_dirs = trans.sky_directions()
@@ -910,7 +912,7 @@ class Polarimeter(Sensor):
         scat = None
         if fc.in_water:
             assert self._column is not None and fc.state is not None
-            trans = surface_mod.surface_transmission(rays, self.n_water, rotation=c_cn)
+            trans = transmission_mod.surface_transmission(rays, self.n_water, rotation=c_cn)
             window_st = trans.apply(self._window_sky(trans, fc, c_cn, psf))
             if occluded is not None:
                 window_st[occluded] = 0.0
@@ -939,7 +941,7 @@ class Polarimeter(Sensor):
 
     def _window_sky(
         self,
-        trans: surface_mod.SurfaceTransmission,
+        trans: transmission_mod.SurfaceTransmission,
         fc: _Frame,
         c_cn: NDArray[np.float64],
         psf: FloatArray,
@@ -1115,7 +1117,7 @@ class Polarimeter(Sensor):
         z = np.array([0.0, 0.0, 1.0])
         p_out = stokes_mod.meridian_reference(d_out, up=z)
         s = stokes_mod.rotate_reference(st.astype(np.float64), d_out, ref_enu, p_out)
-        m00, m01, m22 = surface_mod.interface_chain_elements(port.interfaces())
+        m00, m01, m22 = port_mod.interface_chain_elements(port.interfaces())
         i, q, u = s[..., 0].copy(), s[..., 1].copy(), s[..., 2].copy()
         s[..., 0] = m00 * i + m01 * q
         s[..., 1] = m01 * i + m00 * q

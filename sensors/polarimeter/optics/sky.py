@@ -80,8 +80,8 @@ in the input dtype (float32 for rendering, float64 for the 1e-6 tests). Directio
 any frame F with ``rotation`` = C_F^n (e.g. camera rays and the camera attitude): the rotation is
 applied block by block, so no world-ray frame is ever written to memory; pass ``out=`` to reuse
 the output frame. exp is OpenCV's and float32 arccos a polynomial
-(:func:`~sensors.polarimeter.optics.surface.exp_into`,
-:func:`~sensors.polarimeter.optics.surface.arccos_into`:
+(:func:`~sensors.polarimeter.optics.blocks.exp_into`,
+:func:`~sensors.polarimeter.optics.blocks.arccos_into`:
 numpy's float32 versions are ~5× and ~3× slower here). Cost is ~20–30 ns a direction for
 Rayleigh + a CIE clear sky on one core of the development VM, about 1.7× that for Berry: the
 renderer evaluates the smooth sky on a coarse grid and exactly only where it is not smooth
@@ -99,8 +99,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import chndtr
 
 from sensors.polarimeter import stokes as stokes_mod
+from sensors.polarimeter.optics.blocks import arccos_into, exp_into, is_rotation
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition
-from sensors.polarimeter.optics.surface import arccos_into, exp_into, is_rotation
 
 FloatArray = NDArray[np.floating]
 

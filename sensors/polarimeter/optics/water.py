@@ -76,6 +76,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sensors.polarimeter.optics import column_kernel, scattering
+from sensors.polarimeter.optics.blocks import (
+    CHUNK,
+    as_rotation,
+    exp_into,
+    flatten_directions,
+    world_components,
+)
 from sensors.polarimeter.optics.rt import sky_table as rt_sky
 from sensors.polarimeter.optics.rt import table as rt_table
 from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported: the phase functions)
@@ -85,13 +92,6 @@ from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported:
     molecular_phase,
 )
 from sensors.polarimeter.optics.sky import SkySpec
-from sensors.polarimeter.optics.surface import (
-    CHUNK,
-    as_rotation,
-    exp_into,
-    flatten_directions,
-    world_components,
-)
 from sensors.polarimeter.stokes import meridian_reference
 
 FloatArray = NDArray[np.floating]

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sensors.polarimeter.optics.surface import _dtype, as_rotation
+from sensors.polarimeter.optics.blocks import as_rotation
+from sensors.polarimeter.optics.surface import _dtype
 
 FloatArray = NDArray[np.floating]
 

@@ -9,7 +9,9 @@ import pytest
 
 from sensors.polarimeter import stokes as st
 from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import waves as wv
+from sensors.polarimeter.unit import port as port_mod
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -213,7 +215,7 @@ def test_flat_surface_transmission_matches_the_general_path():
     n = 1.34
     rng = np.random.default_rng(5)
     look = _random_dirs(rng, 3000)
-    tr = sf.surface_transmission(look, n)
+    tr = transmission_mod.surface_transmission(look, n)
     theta_c = sf.snell_window_half_angle(n)
     np.testing.assert_array_equal(tr.sees_sky, look[:, 2] > math.cos(theta_c))
     sky_dirs = tr.sky_directions()
@@ -225,7 +227,7 @@ def test_flat_surface_transmission_matches_the_general_path():
     np.testing.assert_allclose(fast, back, atol=1e-12)
     assert np.all(fast[~tr.sees_sky] == 0)
     # The zenith ray: radiance/n² conserved apart from the normal-incidence Fresnel loss.
-    z = sf.surface_transmission(np.array([[0.0, 0.0, 1.0]]), n)
+    z = transmission_mod.surface_transmission(np.array([[0.0, 0.0, 1.0]]), n)
     out = z.apply(np.array([[2.0, 0.0, 0.0]]))
     assert out[0, 0] / n**2 == pytest.approx(2.0 * 4 * n / (1 + n) ** 2, rel=1e-12)
 
@@ -236,16 +238,18 @@ def test_surface_transmission_in_a_rotated_frame_and_float32():
     c = _rot("x", 0.25) @ _rot("y", 0.4)  # C_F^n: camera tilted
     look_f = _random_dirs(rng, 4000).reshape(40, 100, 3)
     look_w = look_f @ c.T
-    a = sf.surface_transmission(look_w, n)
-    b = sf.surface_transmission(_planar(look_f.astype(np.float32)), n, rotation=c)
+    a = transmission_mod.surface_transmission(look_w, n)
+    b = transmission_mod.surface_transmission(_planar(look_f.astype(np.float32)), n, rotation=c)
     assert b.m00.dtype == np.float32 and b.m00.shape == (40, 100)
     # float32 near the window edge, where c_a = √(1 − n² sin²θ_w) is steep: ~1e-5.
     np.testing.assert_allclose(b.storage, a.storage, atol=5e-5)
     np.testing.assert_allclose(b.sky_directions() @ c.T, a.sky_directions(), atol=5e-4)
-    again = sf.surface_transmission(_planar(look_f.astype(np.float32)), n, rotation=c, out=b)
+    again = transmission_mod.surface_transmission(
+        _planar(look_f.astype(np.float32)), n, rotation=c, out=b
+    )
     assert again.storage is b.storage
     with pytest.raises(ValueError, match="rotation"):
-        sf.surface_transmission(look_f, n, rotation=np.ones((3, 3)))
+        transmission_mod.surface_transmission(look_f, n, rotation=np.ones((3, 3)))
 
 
 def test_wavy_transmission_agrees_with_the_general_path_and_moves_the_window_edge():
@@ -253,7 +257,7 @@ def test_wavy_transmission_agrees_with_the_general_path_and_moves_the_window_edg
     rng = np.random.default_rng(7)
     look = _random_dirs(rng, 2000, zmin=0.0)
     normals = wv.slopes_to_normals(rng.normal(0.0, 0.15, (2000, 2)))
-    tr = sf.surface_transmission(look, n, normals=normals)
+    tr = transmission_mod.surface_transmission(look, n, normals=normals)
     sky = np.stack([np.ones(2000), rng.uniform(-0.4, 0.4, 2000), rng.uniform(-0.4, 0.4, 2000)], -1)
     sd = tr.sky_directions()
     fast = tr.apply(sky)
@@ -342,8 +346,8 @@ def test_calm_sea_is_exactly_flat_and_waves_distort_the_window():
     assert np.all(calm.slopes == 0.0)
     nrm = calm.normals_for_rays(look, (3.0, -2.0), 5.0)
     np.testing.assert_array_equal(nrm, np.broadcast_to([0.0, 0.0, 1.0], look.shape))
-    flat = sf.surface_transmission(look, 1.34)
-    calm_tr = sf.surface_transmission(look, 1.34, normals=nrm)
+    flat = transmission_mod.surface_transmission(look, 1.34)
+    calm_tr = transmission_mod.surface_transmission(look, 1.34, normals=nrm)
     np.testing.assert_allclose(calm_tr.storage, flat.storage, atol=1e-12)
     windy = wv.WaveSurface(wv.WindSea(wind_speed_mps=10.0), np.random.default_rng(11))
     nw = windy.normals_for_rays(look, (0.0, 0.0), 5.0)
@@ -362,18 +366,18 @@ def test_flat_port_round_trip_and_double_fresnel():
     rng = np.random.default_rng(12)
     axis = np.array([0.0, 0.0, 1.0])
     inside = _random_dirs(rng, 1000, zmin=0.0)
-    out = sf.flat_port_from_camera(inside, axis, n_w, n_g)
+    out = port_mod.flat_port_from_camera(inside, axis, n_w, n_g)
     assert out.valid.all()
     theta_w = np.arccos(out.directions[:, 2])
     assert theta_w.max() < sf.snell_window_half_angle(n_w)
-    back = sf.flat_port_from_water(out.directions, axis, n_w, n_g)
+    back = port_mod.flat_port_from_water(out.directions, axis, n_w, n_g)
     assert back.valid.all()
     np.testing.assert_allclose(back.directions, inside, atol=1e-9)
     np.testing.assert_allclose(back.m00, out.m00, rtol=1e-9)
     # The two interfaces' product, from the camera module's (n_i, n_t, cos_i, cos_t) chain.
     cos_w = out.directions[:, 2]
     cos_g = np.sqrt(1 - (n_w / n_g) ** 2 * (1 - cos_w**2))
-    m00, m01, m22 = sf.interface_chain_elements(
+    m00, m01, m22 = port_mod.interface_chain_elements(
         ((n_w, n_g, cos_w, cos_g), (n_g, 1.0, cos_g, inside[:, 2]))
     )
     np.testing.assert_allclose(m00, out.m00, rtol=1e-9)
@@ -381,8 +385,8 @@ def test_flat_port_round_trip_and_double_fresnel():
     np.testing.assert_allclose(m22, out.m22, rtol=1e-9)
     # Radiance law overall: L_air = L_water / n_w² × T at normal incidence.
     t_total = (4 * n_w * n_g / (n_w + n_g) ** 2) * (4 * n_g / (1 + n_g) ** 2)
-    z = sf.flat_port_from_camera(np.array([[0.0, 0.0, 1.0]]), axis, n_w, n_g)
+    z = port_mod.flat_port_from_camera(np.array([[0.0, 0.0, 1.0]]), axis, n_w, n_g)
     assert float(z.m00[0]) == pytest.approx(t_total / n_w**2)
     # Beyond the port's window the water is not seen; behind the port nothing is.
-    bad = sf.flat_port_from_water(_unit(np.array([[0.9, 0.0, 0.3], [0, 0, -1.0]])), axis, n_w)
+    bad = port_mod.flat_port_from_water(_unit(np.array([[0.9, 0.0, 0.3], [0, 0, -1.0]])), axis, n_w)
     assert not bad.valid.any() and np.all(bad.m00 == 0)

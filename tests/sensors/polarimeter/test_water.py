@@ -11,6 +11,7 @@ from scipy.integrate import quad
 
 from sensors.polarimeter import stokes as st
 from sensors.polarimeter.optics import surface as sf
+from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as wa
 
 N = 1.34
@@ -226,7 +227,7 @@ def test_no_nan_anywhere(water, depth, el, e_sky):
     col, state = _column(water, depth=depth, sun_el_deg=el, e_sky=e_sky)
     for dt in (np.float64, np.float32):
         v = _awkward_rays().astype(dt)
-        tr = sf.surface_transmission(v, N)
+        tr = transmission_mod.surface_transmission(v, N)
         window = tr.apply(np.tile([1.0, 0.3, -0.2], (len(v), 1)).astype(dt))
         out = col.render(v, state, window)
         assert out.dtype == dt
@@ -239,7 +240,7 @@ def test_no_nan_anywhere(water, depth, el, e_sky):
 def test_direct_light_and_the_window():
     col, state = _column("II", depth=6.0)
     v = _dirs(np.array([0.0, 30.0, 45.0, 60.0]), np.zeros(4))
-    tr = sf.surface_transmission(v, N)
+    tr = transmission_mod.surface_transmission(v, N)
     window = tr.apply(np.tile([1.0, 0.2, 0.1], (4, 1)))
     direct = col.direct(v, window, state)
     t = np.exp(-col.water.c_per_m * 6.0 / v[:, 2])
@@ -251,7 +252,7 @@ def test_diffuse_background_grows_outside_the_window_with_depth():
     """Across Snell's window edge (44° in, 53° out, away from the sun) the contrast fades with
     depth, then settles: the asymptotic radiance distribution keeps a contrast of its own."""
     v = _dirs(np.array([44.0, 53.0]), np.array([-90.0, -90.0]))
-    tr = sf.surface_transmission(v, N)
+    tr = transmission_mod.surface_transmission(v, N)
     window = tr.apply(np.tile([0.2 / math.pi, 0.0, 0.0], (2, 1)))  # a uniform sky
     for water in ("II", "3C"):
         ratios = []
