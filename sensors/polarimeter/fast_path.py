@@ -1,0 +1,438 @@
+"""The polarimeter's fast path: smooth light on a coarse grid, the exact chain where it is not.
+
+A frame through the exact chain at every pixel costs ~40 ms at 612×512 (~0.7 s at 2448×2048) on
+one core. The fast path (``PolarimeterSpec.fast``, the default) runs the exact chain at a coarse
+grid of points, upsamples it bilinearly, and renders exactly every pixel of the *rough* cells:
+near Snell's window edge, around the refracted sun, where single scattering steps at the horizon,
+and on the frame's border. :class:`FastPath` is the part of the
+:class:`~sensors.polarimeter.render.Polarimeter` that does it (its ``camera``, ``pspec``,
+``optics``, ``n_water``, ``_column``, ``_plans``, ``_psf_sigma``, ``_psf_sigma_air`` and
+``_finish``); its error against the exact chain is measured in
+``tests/sensors/polarimeter/test_render_fast.py`` and ``benchmarks/fast_path_error.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from sensors.polarimeter.optics import transmission as transmission_mod
+from sensors.polarimeter.optics import water as water_mod
+from sensors.polarimeter.optics.sky import sky_radiance
+
+# The configuration and truth records live in spec.py; re-exported here, where users import them.
+from sensors.polarimeter.unit import camera as camera_mod
+
+FloatArray = NDArray[np.floating]
+
+# The fast path's rough bands (Polarimeter._render_fast), chosen by measuring its error against the
+# exact chain (tests/sensors/polarimeter/test_render_fast.py, docs/polarimeter.md).
+# Inside the edge: 5 cells. 3 cells give the same worst pixel in benchmarks/fast_path_error.py
+# but break the thin limit's fast-path bounds (S0 2.4e-3, AoP 0.052°: test_light_limits.py).
+_EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the horizon in air)
+# … and outside it: none. A cell that straddles the edge has a corner inside, within a cell of
+# it, so the inner band keeps it rough; a cell with every corner outside lies wholly outside (the
+# window is convex, and its edge bows less than 0.02 px across a cell), where the light (the
+# table's outside rows, single scattering) is as smooth as anywhere. One cell (before
+# 2026-12-06) cost 14 % more exact pixels (22 608 against 19 824, the 612×512 benchmark frame)
+# for the same errors on every scene of benchmarks/fast_path_error.py but two (AoP where
+# DoP > 0.2, level 10 m: 0.27° → 0.29°; |Δ(S1, S2)|/S0, low sun: 0.021 → 0.023) and the thin
+# limit.
+_EDGE_BAND_OUT_CELLS = 0.0
+_STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
+_SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
+_SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
+# The sky is evaluated at the rays inside Snell's window only when they are fewer than this
+# share of the rays (below it the gather and scatter cost less than the evaluations saved).
+_SKY_SUBSET_BELOW = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class _Frame:
+    """Per-frame constants of the chain (see ``Polarimeter._frame_constants``)."""
+
+    sun: Any
+    in_water: bool
+    state: water_mod.ColumnState | None
+    sun_look: NDArray[np.float64] | None
+
+
+class _FastPlan:
+    """The fast path's static geometry for one camera, port and stride (computed once).
+
+    *Points*: the coarse grid, one point at the centre of every stride × stride block of pixels,
+    frame coordinates (s·j + (s − 1)/2, s·i + (s − 1)/2) — exactly where ``cv2.resize`` (bilinear,
+    by the integer factor s) places its source samples. *Cells*: the squares between four
+    neighbouring points; a pixel's bilinear value comes from its cell's four corners. Cell (i, j),
+    i = 0..H/s, holds the pixel rows s·i − s/2 .. s·i + s/2 − 1 (clipped to the frame: the half
+    cells along the frame's border are extrapolated by the resize, and rendered exactly).
+    """
+
+    def __init__(
+        self, cam: camera_mod.Camera, port: camera_mod.PortRays, stride: int, psf: FloatArray
+    ) -> None:
+        h, w = cam.shape
+        s = self.stride = stride
+        hc, wc = h // s, w // s
+        valid = port.valid
+        # Cells with a valid pixel; the points at their corners are the ones to evaluate.
+        half = s // 2
+        padded = np.zeros((h + s, w + s), dtype=bool)
+        padded[half : half + h, half : half + w] = valid
+        self.cell_valid = padded.reshape(hc + 1, s, wc + 1, s).any(axis=(1, 3))
+        need = np.zeros((hc + 1, wc + 1), dtype=bool)
+        need |= self.cell_valid
+        need[1:, :] |= self.cell_valid[:-1, :]
+        need[:, 1:] |= need[:, :-1].copy()
+        need = need[1:, 1:]
+        self.points = np.flatnonzero(need)
+        jj, ii = np.meshgrid(np.arange(wc), np.arange(hc))
+        u_all = (s * jj + (s - 1) / 2.0).astype(np.float64)
+        v_all = (s * ii + (s - 1) / 2.0).astype(np.float64)
+        grid_rays, _ = cam.pixel_to_ray(u_all, v_all)  # dome: the outside rays are the lens rays
+        rays = grid_rays.reshape(-1, 3)[self.points]
+        self.rays64 = rays
+        self.rays = np.ascontiguousarray(rays, dtype=np.float32)
+        self.basis = camera_mod.sensor_basis(rays, np.float32)
+        u, v = u_all.reshape(-1)[self.points], v_all.reshape(-1)[self.points]
+        ui = np.clip(np.rint(u).astype(np.intp), 0, w - 1)
+        vi = np.clip(np.rint(v).astype(np.intp), 0, h - 1)
+        self.psf = np.ascontiguousarray(psf[vi, ui])
+        self.psf_full = np.ascontiguousarray(psf.reshape(-1))
+        # Angular size of a cell at each point: the largest angle to a neighbouring point.
+        gap = np.zeros((hc, wc))
+        dv = np.arccos(np.clip(np.sum(grid_rays[1:] * grid_rays[:-1], axis=-1), -1.0, 1.0))
+        du = np.arccos(np.clip(np.sum(grid_rays[:, 1:] * grid_rays[:, :-1], axis=-1), -1.0, 1.0))
+        for a, sl in ((dv, np.s_[1:]), (dv, np.s_[:-1])):
+            gap[sl] = np.maximum(gap[sl], a)
+        gap[:, 1:] = np.maximum(gap[:, 1:], du)
+        gap[:, :-1] = np.maximum(gap[:, :-1], du)
+        self.cell_rad = gap.reshape(-1)[self.points]
+        border = np.zeros_like(self.cell_valid)
+        border[[0, -1], :] = True
+        border[:, [0, -1]] = True
+        self.border = border & self.cell_valid
+        # Bounding box of the valid pixels in blocks, one block wider where the frame allows:
+        # there the resize's edge clamping falls on blocks without valid pixels.
+        block_valid = valid.reshape(hc, s, wc, s).any(axis=(1, 3))
+        rows = np.flatnonzero(block_valid.any(axis=1))
+        cols = np.flatnonzero(block_valid.any(axis=0))
+        if rows.size == 0:
+            rows = cols = np.array([0])
+        b0, b1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, hc)
+        a0, a1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, wc)
+        self.roi = (b0, b1, a0, a1)
+        self.invalid = np.ascontiguousarray(~valid[b0 * s : b1 * s, a0 * s : a1 * s]).astype(
+            np.uint8
+        )
+        self.zeros = np.zeros((*self.invalid.shape, 3), dtype=np.float32)
+        # The valid pixels of each cell (flat indices, −1 = none), and the rays to gather from.
+        hc1, wc1 = self.cell_valid.shape
+        ci, cj = np.meshgrid(np.arange(hc1), np.arange(wc1), indexing="ij")
+        dy, dx = np.mgrid[0:s, 0:s]
+        y = (ci * s - half).reshape(-1, 1) + dy.reshape(1, -1)
+        x = (cj * s - half).reshape(-1, 1) + dx.reshape(1, -1)
+        inside = (y >= 0) & (y < h) & (x >= 0) & (x < w)
+        table = np.where(inside, y * w + x, 0)
+        table = np.where(inside & valid.reshape(-1)[table], table, -1)
+        self._cell_pixels = table.astype(np.int32 if h * w < 2**31 else np.intp)
+        self._rays_planar = cam.rays_planar.reshape(3, -1)
+        self._shape = (h, w)
+
+    def rough_cells(self, points: NDArray[np.bool_]) -> NDArray[np.intp]:
+        """Flat indices of the rough cells, into the (H/s + 1, W/s + 1) cells.
+
+        The valid cells with a corner among the flagged ``points`` (booleans over
+        :attr:`points`), and the valid border cells.
+        """
+        hc1, wc1 = self.cell_valid.shape
+        grid = np.zeros((hc1 + 1, wc1 + 1), dtype=bool)  # the points, padded by one all round
+        inner = np.zeros((hc1 - 1) * (wc1 - 1), dtype=bool)
+        inner[self.points] = points
+        grid[1:-1, 1:-1] = inner.reshape(hc1 - 1, wc1 - 1)
+        cells = grid[:-1, :-1] | grid[1:, :-1] | grid[:-1, 1:] | grid[1:, 1:]
+        cells &= self.cell_valid
+        cells |= self.border
+        return np.flatnonzero(cells)
+
+    def smooth_corners(self, cells: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Positions in :attr:`points` of the corners of the valid cells not among ``cells``.
+
+        The points a frame's interpolation reads: every pixel of a rough cell is rendered
+        exactly, so a point whose cells are all rough is never read.
+        """
+        hc1, wc1 = self.cell_valid.shape
+        smooth = self.cell_valid.copy().reshape(-1)
+        smooth[cells] = False
+        smooth = smooth.reshape(hc1, wc1)
+        # Point (a, b) is a corner of cells (a, b), (a + 1, b), (a, b + 1), (a + 1, b + 1).
+        corner = smooth[:-1, :-1] | smooth[1:, :-1] | smooth[:-1, 1:] | smooth[1:, 1:]
+        return np.flatnonzero(corner.reshape(-1)[self.points])
+
+    def pixels(self, cells: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Flat indices of the valid pixels of the given cells."""
+        idx = self._cell_pixels[cells].reshape(-1)
+        return idx[idx >= 0].astype(np.intp)
+
+    def gather_rays(self, idx: NDArray[np.intp]) -> FloatArray:
+        """(N, 3) the rays of the given pixels (a view of planar storage)."""
+        return np.take(self._rays_planar, idx, axis=1).T
+
+    def interpolate(self, grid: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
+        """(N, 3) ``cv2.resize``'s bilinear value of a (H/s, W/s, 3) point grid at given pixels."""
+        w = self._shape[1]
+        s = self.stride
+        hc, wc = grid.shape[:2]
+        fy = ((idx // w) - (s - 1) / 2.0) / s
+        fx = ((idx % w) - (s - 1) / 2.0) / s
+        y0, x0 = np.floor(fy), np.floor(fx)
+        ty = (fy - y0).astype(np.float32)[:, None]
+        tx = (fx - x0).astype(np.float32)[:, None]
+        y0 = y0.astype(np.intp)
+        x0 = x0.astype(np.intp)
+        ya, yb = np.clip(y0, 0, hc - 1) * wc, np.clip(y0 + 1, 0, hc - 1) * wc
+        xa, xb = np.clip(x0, 0, wc - 1), np.clip(x0 + 1, 0, wc - 1)
+        g = grid.reshape(-1, 3)
+        top = g[ya + xa] * (1 - tx) + g[ya + xb] * tx
+        bottom = g[yb + xa] * (1 - tx) + g[yb + xb] * tx
+        return top * (1 - ty) + bottom * ty
+
+
+def _scatter_rows(flat: FloatArray, idx: NDArray[np.intp], rows: FloatArray) -> None:
+    """flat[idx] = rows for (N, 3) float32 rows, moved as 12-byte records (2× numpy's row path)."""
+    rec = np.dtype((np.void, 12))
+    flat.view(rec)[idx, 0] = np.ascontiguousarray(rows, dtype=np.float32).view(rec)[:, 0]
+
+
+class FastPath:
+    """The fast path's part of the polarimeter (a mixin of ``Polarimeter``; module docstring)."""
+
+    def _fast_plan(self, port: camera_mod.PortRays) -> _FastPlan | None:
+        """The coarse grid for this port (cached), or None where only the exact chain applies."""
+        cam = self.camera
+        if (
+            not self.pspec.fast
+            or port.housing != "dome"
+            or cam.spec.polarization_mapping != "meridional"
+        ):
+            return None
+        stride = self.pspec.smooth_stride_px or max(8 // cam.spec.binning, 4)
+        h, w = cam.shape
+        if h % stride or w % stride or h < 3 * stride or w < 3 * stride:
+            return None
+        key = (port.n_outside, stride)
+        if key not in self._plans:
+            psf = self._psf_sigma if port.n_outside > 1.0 else self._psf_sigma_air
+            self._plans[key] = _FastPlan(cam, port, stride, psf)
+        return self._plans[key]
+
+    def _render_points(
+        self,
+        rays: FloatArray,
+        basis: FloatArray,
+        psf: FloatArray,
+        c_cn: NDArray[np.float64],
+        fc: _Frame,
+        occluded: NDArray[np.bool_] | None = None,
+        parts: Literal["total", "split", "direct"] = "total",
+    ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray | None]:
+        """The exact chain at N rays: (sensor-plane Stokes (N, 3), sees the sky, scattered part).
+
+        The same stages, in the same float32 arithmetic, as the whole-frame chain of
+        :meth:`render_stokes`, for any set of (outside, dome) rays: the pixels the fast path
+        renders exactly, and the coarse grid. ``parts``: ``"total"`` (all the light),
+        ``"split"`` (the total and, third, the scattered light alone) or ``"direct"`` (the
+        direct sky light only: no scattering computed).
+        """
+        o = self.optics
+        scat = None
+        if fc.in_water:
+            assert self._column is not None and fc.state is not None
+            trans = transmission_mod.surface_transmission(rays, self.n_water, rotation=c_cn)
+            window_st = trans.apply(self._window_sky(trans, fc, c_cn, psf))
+            if occluded is not None:
+                window_st[occluded] = 0.0
+            sees = trans.sees_sky
+            col = self._column
+            if parts == "total":
+                st = col.render(rays, fc.state, window_st, rotation=c_cn)
+            else:
+                st = col.direct(rays, window_st, fc.state, rotation=c_cn)
+                if parts == "split":
+                    scat = np.asarray(col.scattered(rays, fc.state, rotation=c_cn))
+                    st = st + scat  # = render(): the direct light is added onto the scattered
+        else:
+            sky = sky_radiance(rays, fc.sun, o.sky, rotation=c_cn, psf_sigma_rad=psf)
+            sees = (rays @ c_cn[2].astype(rays.dtype)) > 0
+            keep = sees if occluded is None else sees & ~occluded
+            st = sky.stokes * keep[:, None]
+            if parts == "split":
+                scat = np.zeros_like(st)
+        out = camera_mod.meridian_to_sensor_stokes(st, c_cn, basis)
+        self._finish(out)
+        if scat is not None:
+            scat = camera_mod.meridian_to_sensor_stokes(scat, c_cn, basis)
+            self._finish(scat)
+        return out, sees, scat
+
+    def _window_sky(
+        self,
+        trans: transmission_mod.SurfaceTransmission,
+        fc: _Frame,
+        c_cn: NDArray[np.float64],
+        psf: FloatArray,
+    ) -> FloatArray:
+        """(N, 3) the sky's Stokes along each ray's sky direction, zero where it sees no sky.
+
+        The sky model is evaluated at the rays inside Snell's window only: outside it the
+        transmission factors are zero (:meth:`SurfaceTransmission.apply`), and most of the
+        coarse grid's points lie there (three in four at 10 m under a level camera). Each
+        sample's value does not depend on which others are evaluated with it
+        (:func:`sky.sky_radiance`).
+        """
+        sees = trans.sees_sky
+        dirs = trans.sky_directions()
+        sky = self.optics.sky
+        sel = np.flatnonzero(sees)
+        if sel.size > _SKY_SUBSET_BELOW * sees.size:  # the gather and scatter would cost more
+            return sky_radiance(dirs, fc.sun, sky, rotation=c_cn, psf_sigma_rad=psf).stokes
+        # Planar (3, N) storage in and out: sky_radiance's fast layout, contiguous gathers.
+        out = np.zeros((3, sees.size), dtype=dirs.dtype)
+        if sel.size:
+            sub = np.take(dirs.T, sel, axis=1).T
+            sig = np.broadcast_to(psf, sees.shape)[sel]
+            res = sky_radiance(sub, fc.sun, sky, rotation=c_cn, psf_sigma_rad=sig)
+            out[:, sel] = res.stokes.T
+        return out.T
+
+    def _render_fast(
+        self,
+        plan: _FastPlan,
+        c_cn: NDArray[np.float64],
+        fc: _Frame,
+        valid: NDArray[np.bool_],
+        occluded: NDArray[np.bool_],
+    ) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """The frame from a coarse grid, bilinearly upsampled, and exact pixels where needed.
+
+        1. A *cell* (the square between four coarse-grid points, one point at the centre of
+           every stride × stride block of pixels, whose pixels the bilinear interpolation takes
+           from those four) is *rough* when a corner point lies within ``_EDGE_BAND_IN_CELLS``
+           cells inside Snell's window edge (``_EDGE_BAND_OUT_CELLS`` outside; above the
+           horizon, in air: Fresnel transmission and the compressed sky are not smooth there);
+           or within ``_SUN_BAND_CELLS`` cells plus ``_SUN_BAND_RAD`` of the (refracted) sun
+           (the disc, the sky's aureole, the forward-peaked phase function); or near a feature
+           of the scattered light narrower than a few cells (the single-scattering step at the
+           horizon, sharp at shallow depth); and every cell on the frame's border is rough (the
+           resize extrapolates there). This is geometry: the points' directions only.
+        2. The exact chain (:meth:`_render_points`) at the points a smooth cell reads (a point
+           whose cells are all rough is never read): the sensor-plane Stokes of all the light
+           and of the scattered light, in photons/s. The lens's polarization mapping is applied
+           at the points, so the meridian frame's singularity at the zenith is never
+           interpolated, only smooth sensor-plane fields. The exact chain renders every valid
+           pixel of a rough cell; the others are interpolated.
+        3. Snell's window mask: exact in rough cells, elsewhere the nearest point's (a smooth
+           cell lies wholly on one side of the edge). Occluded pixels of smooth cells lose the
+           interpolated direct light (total − scattered at the points).
+
+        The bands were chosen by measuring the error against the exact chain
+        (``tests/sensors/polarimeter/test_render_fast.py``, ``docs/polarimeter.md``).
+        """
+        cam = self.camera
+        h, w = cam.shape
+        s = plan.stride
+        hc, wc = h // s, w // s
+        occ_any = bool(occluded.any())
+        # --- rough points (geometry only) ------------------------------------------------------
+        world = plan.rays64 @ c_cn.T
+        cell = plan.cell_rad
+        up = np.clip(world[:, 2], -1.0, 1.0)
+        edge = math.acos(fc.state.window_cos) if fc.state is not None else 0.5 * math.pi
+        # Signed angle from the edge in cells (> 0 outside the window / below the horizon).
+        ang = (np.arccos(up) - edge) / cell
+        rough = (ang > -_EDGE_BAND_IN_CELLS) & (ang < _EDGE_BAND_OUT_CELLS)
+        if fc.state is not None:
+            rough |= self._sharp_scattering(fc.state, up, cell)
+        if fc.sun_look is not None:
+            cos_sun = np.clip(world @ fc.sun_look, -1.0, 1.0)
+            rough |= np.arccos(cos_sun) < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
+        cells = plan.rough_cells(rough)
+        # --- the exact chain at the points the smooth cells read --------------------------------
+        use = plan.smooth_corners(cells)
+        points = plan.points[use]
+        tot_c, sees_c, scat_c = self._render_points(
+            plan.rays[use],
+            np.take(plan.basis, use, axis=1),
+            plan.psf[use],
+            c_cn,
+            fc,
+            parts="split" if occ_any else "total",
+        )
+        # --- the coarse frame, upsampled over the image circle's bounding box -------------------
+        coarse = np.zeros((hc * wc, 3), dtype=np.float32)
+        coarse[points] = tot_c
+        st = np.zeros((h, w, 3), dtype=np.float32)
+        b0, b1, a0, a1 = plan.roi
+        roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
+        cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
+        cv2.copyTo(plan.zeros, plan.invalid, roi)
+        flat = st.reshape(-1, 3)
+        # --- the exact chain at the valid pixels of the rough cells -----------------------------
+        idx = plan.pixels(cells)
+        st_r, sees_r, _ = self._render_points(
+            plan.gather_rays(idx),
+            cam.sensor_basis_at(idx),
+            plan.psf_full[idx],
+            c_cn,
+            fc,
+            occluded.reshape(-1)[idx] if occ_any else None,
+        )
+        _scatter_rows(flat, idx, st_r)
+        # --- Snell's window (the sky above the horizon, in air) ---------------------------------
+        win_c = np.zeros(hc * wc, dtype=np.uint8)
+        win_c[points] = sees_c
+        window = cv2.resize(win_c.reshape(hc, wc), (w, h), interpolation=cv2.INTER_NEAREST)
+        window = window.view(bool)
+        win_flat = window.reshape(-1)
+        win_flat[idx] = sees_r
+        window &= valid
+        if occ_any:
+            exact_px = np.zeros(h * w, dtype=bool)
+            exact_px[idx] = True
+            lose = np.flatnonzero((occluded & window).reshape(-1) & ~exact_px)
+            if lose.size:
+                direct = np.zeros((hc * wc, 3), dtype=np.float32)
+                assert scat_c is not None
+                direct[points] = tot_c - scat_c
+                flat[lose] -= plan.interpolate(direct.reshape(hc, wc, 3), lose)
+                np.maximum(flat[lose, 0], 0.0, out=flat[lose, 0])
+            window &= ~occluded
+        return st, window
+
+    def _sharp_scattering(
+        self,
+        state: water_mod.ColumnState,
+        up: NDArray[np.float64],
+        cell: NDArray[np.float64],
+    ) -> NDArray[np.bool_]:
+        """Coarse points where the scattered light is too curved to interpolate over a cell.
+
+        Single scattering changes from a path-limited to an unlimited line of sight over
+        v_z ≈ c·z at the horizon: rough within 3 c·z + 1 cell of it when c·z spans fewer than
+        ``_STEP_CELLS`` cells. (The table's light is bilinear between bins of 3° and more, wider
+        than a cell, and its one step, the total internal reflection at Snell's window edge, lies
+        in the edge band.)
+        """
+        assert self._column is not None
+        step = self._column.water.c_per_m * state.depth_m
+        narrow = step / cell < _STEP_CELLS
+        rough = np.zeros(up.shape, dtype=bool)
+        if narrow.any():
+            horizon = np.arcsin(up) / cell
+            rough |= narrow & (np.abs(horizon) < 3.0 * step / cell + 1.0)
+        return rough
