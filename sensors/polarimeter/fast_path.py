@@ -24,9 +24,10 @@ from numpy.typing import NDArray
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
+from sensors.polarimeter.unit import camera as camera_mod
 
 # The configuration and truth records live in spec.py; re-exported here, where users import them.
-from sensors.polarimeter.unit import camera as camera_mod
+from sensors.polarimeter.unit import port as port_mod
 
 FloatArray = NDArray[np.floating]
 
@@ -74,7 +75,7 @@ class _FastPlan:
     """
 
     def __init__(
-        self, cam: camera_mod.Camera, port: camera_mod.PortRays, stride: int, psf: FloatArray
+        self, cam: camera_mod.Camera, port: port_mod.PortRays, stride: int, psf: FloatArray
     ) -> None:
         h, w = cam.shape
         s = self.stride = stride
@@ -212,7 +213,7 @@ def _scatter_rows(flat: FloatArray, idx: NDArray[np.intp], rows: FloatArray) -> 
 class FastPath:
     """The fast path's part of the polarimeter (a mixin of ``Polarimeter``; module docstring)."""
 
-    def _fast_plan(self, port: camera_mod.PortRays) -> _FastPlan | None:
+    def _fast_plan(self, port: port_mod.PortRays) -> _FastPlan | None:
         """The coarse grid for this port (cached), or None where only the exact chain applies."""
         cam = self.camera
         if (

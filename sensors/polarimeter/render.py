@@ -698,7 +698,7 @@ class Polarimeter(FastPath, Sensor):
         return float(np.mean(sky.stokes[..., 0] * _HEMI[:, 2]) * 2.0 * math.pi)
 
     def _to_sensor(
-        self, st: FloatArray, c_cn: NDArray[np.float64], port: camera_mod.PortRays
+        self, st: FloatArray, c_cn: NDArray[np.float64], port: port_mod.PortRays
     ) -> FloatArray:
         """ENU-meridian Stokes of the light along −ray (outside) → sensor-plane Stokes."""
         cam = self.camera

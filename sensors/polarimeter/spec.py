@@ -23,7 +23,7 @@ from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import SkySpec
-from sensors.polarimeter.unit import camera as camera_mod
+from sensors.polarimeter.unit import fisheye as fisheye_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
 
 FloatArray = NDArray[np.floating]
@@ -125,7 +125,7 @@ class PolarimeterSpec(SensorSpec):
     Attributes:
         rate_hz: Frame rate (Hz). The seeds' cameras ran at 10 Hz.
         delay_s: Readout + transfer latency (s).
-        camera: Lens/geometry preset (``camera.PRESETS``).
+        camera: Lens/geometry preset (``unit.fisheye.PRESETS``).
         sensor: DoFP sensor preset (``mosaic.PRESETS``).
         binning: On-sensor same-orientation binning 1, 2 or 4 (2448×2048 → 612×512 at 4).
         housing: ``"dome"`` or ``"flat"`` port.
@@ -172,8 +172,8 @@ class PolarimeterSpec(SensorSpec):
     def validate(self) -> None:
         """Raise ValueError naming the field, the value and what is allowed."""
         SensorSpec.validate(self)
-        if self.camera not in camera_mod.PRESETS:
-            raise ValueError(f"camera = {self.camera!r}: allowed: {sorted(camera_mod.PRESETS)}")
+        if self.camera not in fisheye_mod.PRESETS:
+            raise ValueError(f"camera = {self.camera!r}: allowed: {sorted(fisheye_mod.PRESETS)}")
         if self.sensor not in mosaic_mod.PRESETS:
             raise ValueError(f"sensor = {self.sensor!r}: allowed: {sorted(mosaic_mod.PRESETS)}")
         if self.binning not in (1, 2, 4):
@@ -208,8 +208,8 @@ class PolarimeterSpec(SensorSpec):
             )
         self.camera_spec()  # binning vs sensor size, housing
 
-    def camera_spec(self) -> camera_mod.FisheyeSpec:
-        return camera_mod.preset(self.camera, binning=self.binning, housing=self.housing)
+    def camera_spec(self) -> fisheye_mod.FisheyeSpec:
+        return fisheye_mod.preset(self.camera, binning=self.binning, housing=self.housing)
 
     def sensor_spec(self) -> mosaic_mod.PolarizationSensorSpec:
         """The DoFP spec of one (binned) pixel.

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from sensors.polarimeter.unit.calibration import calibration_from_spec
-from sensors.polarimeter.unit.camera import preset
+from sensors.polarimeter.unit.fisheye import preset
 from twin.campaign.trials import StudyTrial
 from twin.onboard.compass.moi import _geometry, estimate_axis
 

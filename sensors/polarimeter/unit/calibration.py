@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from sensors.polarimeter.unit.camera import FisheyeSpec
+from sensors.polarimeter.unit.fisheye import FisheyeSpec
 from sensors.polarimeter.unit.mosaic import PolarizationSensorSpec
 from twin.core.calibration import CameraCalibration
 

@@ -6,6 +6,7 @@ The housing's Fresnel chain, in the interfaces' shared plane of incidence
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -20,6 +21,7 @@ from sensors.polarimeter.optics.surface import (
     fresnel_elements,
     refract,
 )
+from sensors.polarimeter.unit.fisheye import Housing
 
 FloatArray = NDArray[np.floating]
 BoolArray = NDArray[np.bool_]
@@ -148,3 +150,109 @@ def interface_chain_elements(
         e = fresnel_elements(cos_i, n_i, n_t, factor)
         m00, m01, m22 = e.m00 * m00 + e.m01 * m01, e.m00 * m01 + e.m01 * m00, e.m22 * m22
     return np.asarray(m00), np.asarray(m01), np.asarray(m22)
+
+
+# ---- the camera's rays through the port ----------------------------------------------------------
+
+
+def flat_port_refraction(
+    dirs_inside: ArrayLike, n_outside: float, n_glass: float, n_inside: float = 1.0
+) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray, FloatArray]:
+    """Housing-side (lens) ray directions → directions in the outside medium, through a flat port.
+
+    The port is a plane-parallel window perpendicular to the camera z axis. Snell's law at both
+    faces, n_in sin θ_in = n_g sin θ_g = n_out sin θ_out, with the azimuth kept (vector form:
+    t_xy = (n_in/n_out)·d_xy, t_z = √(1 − |t_xy|²)).
+
+    Args:
+        dirs_inside: (..., 3) unit vectors (camera frame) along which the lens looks, in the
+            housing's gas.
+        n_outside: Refractive index outside (water, e.g. from Quan–Fry).
+        n_glass: Index of the window.
+        n_inside: Index of the housing gas (1.0 = air).
+
+    Returns:
+        ``(dirs_outside, valid, cos_inside, cos_glass, cos_outside)``: the outward directions in the
+        outside medium (camera frame), whether the ray leaves through the port (θ_in < 90°), and the
+        cosines of the angles to the port normal in the three media (the Fresnel hook: interface
+        outside→glass has incidence cos_outside and transmission cos_glass, glass→inside has
+        cos_glass and cos_inside). Invalid rays get the port normal and cosines 1, never NaN.
+    """
+    n_out = _check_index("n_outside", n_outside)
+    n_g = _check_index("n_glass", n_glass)
+    n_in = _check_index("n_inside", n_inside)
+    d = np.asarray(dirs_inside)
+    valid = d[..., 2] > 0.0
+    s_in2 = np.minimum(d[..., 0] ** 2 + d[..., 1] ** 2, 1.0)
+    cos_in = np.where(valid, np.sqrt(1.0 - s_in2), 1.0)
+    ratio_g = (n_in / n_g) ** 2
+    ratio_o = (n_in / n_out) ** 2
+    cos_g = np.where(valid, np.sqrt(np.maximum(1.0 - ratio_g * s_in2, 0.0)), 1.0)
+    cos_o = np.where(valid, np.sqrt(np.maximum(1.0 - ratio_o * s_in2, 0.0)), 1.0)
+    scale = np.where(valid, n_in / n_out, 0.0)
+    out = np.stack([d[..., 0] * scale, d[..., 1] * scale, cos_o], axis=-1).astype(d.dtype)
+    return out, valid, cos_in, cos_g, cos_o
+
+
+def flat_port_inverse(
+    dirs_outside: ArrayLike, n_outside: float, n_inside: float = 1.0
+) -> tuple[FloatArray, BoolArray]:
+    """Outside-medium directions (camera frame, pointing away from the camera) → lens-side rays.
+
+    The inverse of :func:`flat_port_refraction` (the window's index does not change directions).
+    Rays beyond the critical angle asin(n_in/n_out), or pointing behind the port, cannot reach the
+    lens: ``valid`` is False there and the direction returned is the port normal.
+    """
+    n_out = _check_index("n_outside", n_outside)
+    n_in = _check_index("n_inside", n_inside)
+    d = np.asarray(dirs_outside)
+    s_out2 = d[..., 0] ** 2 + d[..., 1] ** 2
+    s_in2 = (n_out / n_in) ** 2 * s_out2
+    valid = (d[..., 2] > 0.0) & (s_in2 < 1.0)
+    scale = np.where(valid, n_out / n_in, 0.0)
+    cos_in = np.where(valid, np.sqrt(np.maximum(1.0 - s_in2, 0.0)), 1.0)
+    out = np.stack([d[..., 0] * scale, d[..., 1] * scale, cos_in], axis=-1).astype(d.dtype)
+    return out, valid
+
+
+@dataclass(frozen=True, slots=True)
+class PortRays:
+    """Per-pixel rays outside the housing and the port's interface geometry (the Fresnel hook).
+
+    Attributes:
+        directions: (H, W, 3) outward directions in the outside medium (camera frame).
+        valid: (H, W) pixels that see the outside medium (camera's valid mask ∧ the port passes).
+        cos_inside: (H, W) cosine of the lens-side ray with the port normal (1 for a dome).
+        cos_glass: (H, W) cosine inside the window (1 for a dome).
+        cos_outside: (H, W) cosine in the outside medium (1 for a dome).
+        n_inside: Index of the housing gas.
+        n_glass: Index of the window.
+        n_outside: Index of the outside medium.
+        housing: ``"dome"`` or ``"flat"``.
+    """
+
+    directions: FloatArray
+    valid: BoolArray
+    cos_inside: FloatArray
+    cos_glass: FloatArray
+    cos_outside: FloatArray
+    n_inside: float
+    n_glass: float
+    n_outside: float
+    housing: Housing
+
+    def interfaces(self) -> tuple[tuple[float, float, FloatArray, FloatArray], ...]:
+        """The interfaces in the light's order, each ``(n_i, n_t, cos_i, cos_t)``.
+
+        For a flat port: outside→glass, then glass→housing gas. The renderer applies the Fresnel
+        transmission Mueller matrix (``sensors.polarimeter.optics.surface``) and the n² radiance law
+        for
+        each, in the plane-of-incidence basis ``stokes.meridian_reference(d, up=(0, 0, 1))`` (camera
+        frame; d = −direction). A dome is at normal incidence: no interfaces listed here.
+        """
+        if self.housing == "dome":
+            return ()
+        return (
+            (self.n_outside, self.n_glass, self.cos_outside, self.cos_glass),
+            (self.n_glass, self.n_inside, self.cos_glass, self.cos_inside),
+        )

@@ -17,7 +17,8 @@ import pytest
 from sensors.polarimeter import stokes
 from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
 from sensors.polarimeter.unit.calibration import calibration_from_spec
-from sensors.polarimeter.unit.camera import Camera, preset
+from sensors.polarimeter.unit.camera import Camera
+from sensors.polarimeter.unit.fisheye import preset
 from sensors.polarimeter.unit.mosaic import DoFPSensor
 from sensors.polarimeter.unit.mosaic import preset as sensor_preset
 from twin.core.frames import euler_to_dcm

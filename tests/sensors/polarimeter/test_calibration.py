@@ -7,7 +7,8 @@ import pytest
 
 from sensors.polarimeter import stokes
 from sensors.polarimeter.unit.calibration import calibration_from_spec
-from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
+from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera
+from sensors.polarimeter.unit.fisheye import preset
 from sensors.polarimeter.unit.mosaic import preset as sensor_preset
 
 

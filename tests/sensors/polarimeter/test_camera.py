@@ -7,17 +7,9 @@ import pytest
 
 from sensors.polarimeter import stokes
 from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
-from sensors.polarimeter.unit.camera import (
-    PRESETS,
-    SENSOR_PROPAGATION,
-    SENSOR_REFERENCE,
-    TUM_VI_CAM0_KB,
-    Camera,
-    FisheyeSpec,
-    flat_port_inverse,
-    flat_port_refraction,
-    preset,
-)
+from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera
+from sensors.polarimeter.unit.fisheye import PRESETS, TUM_VI_CAM0_KB, FisheyeSpec, preset
+from sensors.polarimeter.unit.port import flat_port_inverse, flat_port_refraction
 from twin.core.frames import euler_to_dcm
 
 F_FE185_MM = 1.8

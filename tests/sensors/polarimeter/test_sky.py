@@ -15,7 +15,8 @@ from sensors.polarimeter.optics.sky import (
     sky_radiance,
 )
 from sensors.polarimeter.optics.sun import direction_from_zenith_azimuth
-from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera, preset
+from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera
+from sensors.polarimeter.unit.fisheye import preset
 from twin.core.frames import euler_to_dcm
 
 NO_DISC = {"sun_relative_radiance": 0.0}
