@@ -81,7 +81,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return 2
     live = args.connect
     if args.connect is not None:
-        from twin.record.recorder import check_live
+        from twin.record.live import check_live
 
         try:
             check_live(args.connect)
@@ -89,7 +89,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"error: --connect: {exc}", file=sys.stderr)
             return 2
     if args.viewer:
-        from twin.record.recorder import spawn_viewer
+        from twin.record.live import spawn_viewer
 
         try:
             live = spawn_viewer()

@@ -59,10 +59,11 @@ from twin.core.frames import dcm_to_euler, dcm_to_quat, quat_to_dcm, yaw_to_head
 from twin.core.messages import Reading
 from twin.onboard.ins import NavState
 from twin.onboard.navigator import Navigator, VehicleKnowledge
+from twin.record.blueprint import default_blueprint
 from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA
 from twin.record.observer import log_compass_event, log_nav_sample, log_truth
 from twin.record.provenance import fingerprint, parquet_metadata, provenance
-from twin.record.recorder import Recorder, compact, default_blueprint, utc_ns
+from twin.record.recorder import Recorder, compact, utc_ns
 from twin.record.timeseries import fix_row
 from twin.scoring.navigation import VariantScore
 from twin.sim.build import navigator_config

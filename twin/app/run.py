@@ -31,11 +31,12 @@ import numpy as np
 
 from scenarios.schema import Scenario
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
+from twin.record.blueprint import default_blueprint
 from twin.record.mcap_log import FILE as MCAP_FILE
 from twin.record.mcap_log import McapLog
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
 from twin.record.provenance import fingerprint, provenance
-from twin.record.recorder import Recorder, compact, default_blueprint
+from twin.record.recorder import Recorder, compact
 from twin.record.timeseries import TimeSeriesWriter
 from twin.scoring.mission import format_summary, fusion_warnings, summarize
 from twin.scoring.observer import RunScorer

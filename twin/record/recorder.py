@@ -48,11 +48,8 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-import socket
 import subprocess
 import sys
-import time
-import urllib.parse
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -65,6 +62,7 @@ from numpy.typing import NDArray
 
 from twin.core.frames import wxyz_to_xyzw
 from twin.core.messages import Reading
+from twin.record.blueprint import default_blueprint
 
 SIM_TIME = "sim_time"
 UTC = "utc"
@@ -99,163 +97,9 @@ _TRUTH_WIDTH = 16
 FloatArray = NDArray[np.float64]
 
 
-def default_blueprint(variants: Sequence[str] = (), *, gravity: bool = False) -> rrb.Blueprint:
-    """The layout a recording opens with.
-
-    Left: the 3D world (vehicle, path travelled, mission, surface/seabed/tank) above the chase
-    camera and the text log. Right: tabs: "Vehicle", a grid of time series (attitude, heading,
-    depth, speed, IMU, control, every filter's heading and error), then one tab per filter variant
-    with its heading error ±3σ, roll/pitch error, position error, attitude NEES and (for a compass
-    variant) each fix's error against truth. The 3D view shows everything logged up to the time
-    cursor, so ``/world/path`` (one segment per row) accumulates into the track; the vehicle's
-    transform is always taken at the cursor.
-
-    Args:
-        variants: The run's filter variants (``[navigation] variants``), one tab each.
-        gravity: Add a "Gravity map" tab (the stored map with the route, the paths and the
-            filters' ellipses, and the information map M: ``twin.record.gravity``).
-
-    Returns:
-        The blueprint, to pass as ``default_blueprint`` when saving.
-    """
-    world = rrb.Spatial3DView(
-        origin="/world",
-        name="World (ENU)",
-        time_ranges=rrb.VisibleTimeRange(
-            SIM_TIME,
-            start=rrb.TimeRangeBoundary.infinite(),
-            end=rrb.TimeRangeBoundary.cursor_relative(),
-        ),
-        eye_controls=rrb.EyeControls3D(tracking_entity="/world/auv"),
-    )
-    series = rrb.Grid(
-        rrb.TimeSeriesView(origin="/truth/rpy_deg", name="Attitude, truth (deg)"),
-        rrb.TimeSeriesView(origin="/truth/heading_deg", name="Heading, truth (deg)"),
-        rrb.TimeSeriesView(
-            origin="/", contents=["/truth/depth_m", "/sensors/depth/**"], name="Depth (m)"
-        ),
-        rrb.TimeSeriesView(origin="/truth/speed_mps", name="Speed, truth (m/s)"),
-        rrb.TimeSeriesView(origin="/sensors/imu", name="IMU"),
-        rrb.TimeSeriesView(origin="/control", name="Actuator commands"),
-        rrb.TimeSeriesView(
-            origin="/",
-            contents=["/truth/heading_deg", "/nav/heading_deg/**"],
-            name="Heading: filters vs truth (deg)",
-        ),
-        rrb.TimeSeriesView(
-            origin="/nav", contents=["/nav/*/heading_error_deg"], name="Heading error ±3σ (deg)"
-        ),
-        grid_columns=2,
-        name="Vehicle",
-    )
-    per_variant = [
-        rrb.Grid(
-            rrb.TimeSeriesView(
-                origin=f"/nav/{v}/heading_error_deg", name=f"{v}: heading error ±3σ (deg)"
-            ),
-            rrb.TimeSeriesView(
-                origin=f"/nav/{v}/attitude_error_deg", name=f"{v}: roll/pitch error (deg)"
-            ),
-            rrb.TimeSeriesView(
-                origin=f"/nav/{v}/position_error_m", name=f"{v}: position error (m)"
-            ),
-            rrb.TimeSeriesView(origin=f"/nav/{v}/nees_attitude", name=f"{v}: attitude NEES"),
-            *(
-                (
-                    rrb.TimeSeriesView(
-                        origin=f"/nav/{v}/compass_fix_error_deg",
-                        name=f"{v}: compass fix error vs truth (deg)",
-                    ),
-                )
-                if v != "ins"
-                else ()
-            ),
-            grid_columns=2,
-            name=f"Filter {v}",
-        )
-        for v in variants
-    ]
-    tabs = list(per_variant)
-    if gravity:
-        tabs.append(
-            rrb.Horizontal(
-                rrb.Spatial2DView(origin="/gravity/map", name="Stored map, route, paths, 2σ"),
-                rrb.Spatial2DView(origin="/gravity/information", name="Information M (log10)"),
-                name="Gravity map",
-            )
-        )
-    right = rrb.Tabs(series, *tabs) if tabs else series
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Vertical(
-                world,
-                rrb.Horizontal(
-                    rrb.Spatial2DView(origin="/camera/chase", name="Chase camera"),
-                    rrb.Tabs(
-                        rrb.Spatial2DView(origin="/polarimeter/intensity", name="Polarimeter S0"),
-                        rrb.Spatial2DView(origin="/polarimeter/aop", name="Polarimeter AoP"),
-                        rrb.Spatial2DView(origin="/polarimeter/dop", name="Polarimeter DoP"),
-                        rrb.TextLogView(origin=LOG_ENTITY, name="Log"),
-                    ),
-                ),
-                row_shares=[0.65, 0.35],
-            ),
-            right,
-            column_shares=[0.55, 0.45],
-        ),
-        rrb.TimePanel(timeline=SIM_TIME),
-        collapse_panels=False,
-    )
-
-
 def utc_ns(t: dt.datetime) -> int:
     """Nanoseconds since 1970 of an aware datetime, exactly (float seconds resolve ~0.2 µs)."""
     return (t - _EPOCH) // dt.timedelta(microseconds=1) * 1000
-
-
-#: Where a spawned viewer listens (Rerun's default port).
-VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
-
-
-def spawn_viewer(wait_s: float = 10.0) -> str:
-    """Start a Rerun viewer (or reuse the one on the default port); its gRPC URL.
-
-    Raises:
-        OSError: No viewer listens after ``wait_s`` (no ``rerun`` executable, no display).
-    """
-    try:
-        # spawn() acts only for an enabled recording: a throwaway one (nothing is sent on it).
-        rr.spawn(
-            connect=False,
-            hide_welcome_screen=True,
-            recording=rr.RecordingStream("auv_twin", recording_id="spawn"),
-        )
-    except Exception as exc:  # rerun raises plain RuntimeErrors and FileNotFoundErrors here
-        raise OSError(f"could not spawn a Rerun viewer ({type(exc).__name__}: {exc})") from exc
-    check_live(VIEWER_URL, wait_s)
-    return VIEWER_URL
-
-
-def check_live(url: str, wait_s: float = 2.0) -> None:
-    """Raise OSError unless something accepts connections at the gRPC URL's host and port.
-
-    A gRPC sink with nobody listening would hold the run at its first flush.
-    """
-    parsed = urllib.parse.urlsplit(url.replace("rerun+", "", 1))
-    if parsed.scheme not in ("http", "https") or not parsed.hostname:
-        raise OSError(f"{url!r} is not a Rerun gRPC URL (e.g. {VIEWER_URL})")
-    port = parsed.port or (443 if parsed.scheme == "https" else 80)
-    deadline = time.monotonic() + wait_s
-    while True:
-        try:
-            with socket.create_connection((parsed.hostname, port), timeout=0.5):
-                return
-        except OSError as exc:
-            if time.monotonic() >= deadline:
-                raise OSError(
-                    f"no Rerun viewer or server answers at {url} ({exc.strerror or exc})"
-                ) from exc
-            time.sleep(0.2)
 
 
 def salvage(src: Path | str, dst: Path | str) -> Path:
@@ -351,7 +195,8 @@ class Recorder:
         start_utc: UTC instant of sim time 0 (timezone-aware).
         flush_every_s: Sim-time span buffered before the columns are written; a crash loses at most
             this much.
-        blueprint: The layout to store with the file; ``None`` stores :func:`default_blueprint`.
+        blueprint: The layout to store with the file; ``None`` stores
+            :func:`~twin.record.blueprint.default_blueprint`.
         path_period_s: Sim-time spacing of the path-travelled segments in ``/world/path``.
         jpeg_quality: JPEG quality for :meth:`log_image`; ``None`` stores raw pixels.
         live: Also stream to a Rerun viewer or server at this gRPC URL (e.g.
