@@ -67,7 +67,7 @@ from sensors.noise import (
 )
 from sensors.registry import register
 from twin.core import earth
-from twin.core.frames import FloatArray
+from twin.core.arrays import Float64Array as FloatArray
 
 # --- datasheet units to SI (navigation.md §1.1: pyins DH_TO_RS, DRH_TO_RRS) -------------------
 DEG = math.pi / 180.0

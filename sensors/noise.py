@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twin.core.frames import FloatArray
+from twin.core.arrays import Float64Array as FloatArray
 
 # sqrt(2 ln 2 / pi): the Allan-deviation floor of flicker (1/f) bias noise is 0.664 B, where B is
 # the IEEE Std 952 "bias instability" coefficient (navigation.md §1.6).

@@ -25,11 +25,8 @@ from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
 from sensors.polarimeter.unit import camera as camera_mod
-
-# The configuration and truth records live in spec.py; re-exported here, where users import them.
 from sensors.polarimeter.unit import port as port_mod
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 # The fast path's rough bands (Polarimeter._render_fast), chosen by measuring its error against the
 # exact chain (tests/sensors/polarimeter/test_render_fast.py, docs/polarimeter.md).

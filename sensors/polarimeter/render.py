@@ -75,9 +75,8 @@ from sensors.polarimeter.unit import port as port_mod
 from sensors.polarimeter.unit.calibration import calibration_from_spec
 from sensors.polarimeter.unit.hardware import HardwareErrors, HardwareUnit
 from sensors.registry import register
+from twin.core.arrays import FloatArray
 from twin.core.calibration import CameraCalibration
-
-FloatArray = NDArray[np.floating]
 
 
 def _hemisphere(n: int) -> NDArray[np.float64]:

@@ -25,8 +25,7 @@ from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.unit import fisheye as fisheye_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 
 @dataclass(frozen=True, slots=True)

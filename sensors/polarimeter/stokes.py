@@ -8,9 +8,8 @@ towards the camera). The E-vector at angle ψ from ``ref`` is ``cos ψ · ref + 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 
 def _unit(v: FloatArray) -> FloatArray:

@@ -28,7 +28,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-FloatArray = NDArray[np.float64]
+from twin.core.arrays import Float64Array as FloatArray
 
 Projection = Literal["kannala_brandt", "perspective"]
 Housing = Literal["dome", "flat"]

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from twin.core.frames import FloatArray
+from twin.core.arrays import Float64Array as FloatArray
 
 # --- WGS84 (NIMA TR8350.2 §3; pyins.earth, navigation.md §1.1) --------------------------------
 A_M = 6378137.0

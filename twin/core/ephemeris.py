@@ -40,7 +40,7 @@ import pandas as pd
 import pvlib
 from numpy.typing import NDArray
 
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 _MAX_KNOTS = 100_000
 

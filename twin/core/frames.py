@@ -17,9 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
+from twin.core.arrays import Float64Array as FloatArray
 
 # Fossen f-frame axes expressed in the body b-frame: f = F_FROM_B @ b.
 # f.x (forward) = b.y, f.y (starboard) = b.x, f.z (down) = -b.z. det = +1: a proper rotation.

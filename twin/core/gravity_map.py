@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-FloatArray = NDArray[np.float64]
+from twin.core.arrays import Float64Array as FloatArray
 
 # WGS84 (the paper's eq. 31–32 quote R_e = 6378137 m, f = 1/298.3).
 _RE_M = 6378137.0

@@ -86,7 +86,8 @@ import numpy as np
 from scipy.stats import chi2
 
 from twin.core import earth
-from twin.core.frames import FloatArray, dcm_to_euler, yaw_to_heading_deg
+from twin.core.arrays import Float64Array as FloatArray
+from twin.core.frames import dcm_to_euler, yaw_to_heading_deg
 from twin.core.messages import Reading
 from twin.onboard import eskf_kernels, mechanization
 from twin.onboard.eskf_config import GM_SIGMA_PER_BIAS_INSTABILITY, EskfConfig, ImuGrade

@@ -45,7 +45,8 @@ from typing import Literal
 import numpy as np
 
 from twin.core import earth
-from twin.core.frames import FloatArray, dcm_to_euler, dcm_to_quat, euler_to_dcm, yaw_to_heading_deg
+from twin.core.arrays import Float64Array as FloatArray
+from twin.core.frames import dcm_to_euler, dcm_to_quat, euler_to_dcm, yaw_to_heading_deg
 from twin.core.messages import Reading
 from twin.onboard import mechanization
 

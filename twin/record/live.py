@@ -2,43 +2,11 @@
 
 from __future__ import annotations
 
-import datetime as dt
 import socket
 import time
 import urllib.parse
 
 import rerun as rr
-
-SIM_TIME = "sim_time"
-UTC = "utc"
-LOG_ENTITY = "/log"
-
-# A reading channel with more elements than this is a frame or a matrix, not a time series: it is
-# skipped (and listed in ``Recorder.skipped_channels``); log images with ``log_image``.
-MAX_SERIES_WIDTH = 16
-
-_NS_PER_S = 1_000_000_000
-_EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
-_XYZ = ("x", "y", "z")
-_XYZ_COLORS = ((230, 60, 60), (60, 200, 60), (70, 110, 240))
-_TRUTH_COLOR = (255, 200, 40)
-_PATH_COLOR = (255, 140, 0)
-_WAYPOINT_COLOR = (220, 40, 220)
-_SURFACE_COLOR = (90, 170, 230)
-_SEABED_COLOR = (150, 120, 80)
-_TANK_COLOR = (170, 170, 170)
-
-# Column layout of one buffered truth row: t, position (3), quaternion wxyz (4), velocity (3),
-# roll/pitch/yaw (3), heading, depth.
-_T = 0
-_POS = slice(1, 4)
-_QUAT = slice(4, 8)
-_VEL = slice(8, 11)
-_RPY = slice(11, 14)
-_HDG = 14
-_DEPTH = 15
-_TRUTH_WIDTH = 16
-
 
 #: Where a spawned viewer listens (Rerun's default port).
 VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"

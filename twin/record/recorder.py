@@ -58,15 +58,11 @@ from typing import Any
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
-from numpy.typing import NDArray
 
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.frames import wxyz_to_xyzw
 from twin.core.messages import Reading
-from twin.record.blueprint import default_blueprint
-
-SIM_TIME = "sim_time"
-UTC = "utc"
-LOG_ENTITY = "/log"
+from twin.record.blueprint import LOG_ENTITY, SIM_TIME, UTC, default_blueprint
 
 # A reading channel with more elements than this is a frame or a matrix, not a time series: it is
 # skipped (and listed in ``Recorder.skipped_channels``); log images with ``log_image``.
@@ -93,8 +89,6 @@ _RPY = slice(11, 14)
 _HDG = 14
 _DEPTH = 15
 _TRUTH_WIDTH = 16
-
-FloatArray = NDArray[np.float64]
 
 
 def utc_ns(t: dt.datetime) -> int:

@@ -13,8 +13,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
+from twin.core.arrays import FloatArray
 
 
 def exp_into(x: FloatArray, out: FloatArray) -> FloatArray:

@@ -50,10 +50,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 #: Depolarization ratio of sea water, S = 35 (Hu, Zhang et al. 2019; module docstring).
 WATER_DEPOLARIZATION_RATIO = 0.044

@@ -101,8 +101,7 @@ from scipy.special import chndtr
 from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter.optics.blocks import arccos_into, exp_into, is_rotation
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 Polarization = Literal["rayleigh", "berry"]
 #: The polarization models (the scenario's ``optics.sky_polarization``).

@@ -48,9 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sensors.polarimeter import stokes as st
-
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
+from twin.core.arrays import BoolArray, FloatArray
 
 #: Refractive index of air used at the sea surface and inside a camera housing. Quan & Fry's
 #: formula gives the index of water relative to air, so air is 1 here by construction.

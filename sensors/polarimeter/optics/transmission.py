@@ -28,9 +28,7 @@ from sensors.polarimeter.optics.surface import (
     sky_directions_from_water,
     transmit_stokes,
 )
-
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
+from twin.core.arrays import BoolArray, FloatArray
 
 
 @dataclass(frozen=True, slots=True)

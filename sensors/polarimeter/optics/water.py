@@ -73,7 +73,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from sensors.polarimeter.optics import column_kernel, scattering
 from sensors.polarimeter.optics.blocks import (
@@ -93,8 +93,7 @@ from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported:
 )
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.stokes import meridian_reference
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 # --------------------------------------------------------------------------------------------
 # Jerlov water types

@@ -11,12 +11,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from sensors.polarimeter.optics.blocks import as_rotation
 from sensors.polarimeter.optics.surface import _dtype
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 
 def cox_munk_variances(wind_speed_mps: float, slick: bool = False) -> tuple[float, float]:

@@ -105,10 +105,7 @@ from sensors.polarimeter.unit.port import (
     flat_port_inverse,
     flat_port_refraction,
 )
-
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
-
+from twin.core.arrays import BoolArray, FloatArray
 
 #: Propagation direction (camera frame) of light arriving at the sensor: down the optical axis.
 SENSOR_PROPAGATION: FloatArray = np.array([0.0, 0.0, -1.0])

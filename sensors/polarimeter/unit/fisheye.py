@@ -14,10 +14,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
+from twin.core.arrays import FloatArray
 
 Projection = Literal["kannala_brandt", "scaramuzza", "perspective"]
 Housing = Literal["dome", "flat"]

@@ -64,12 +64,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from sensors.polarimeter.unit.lens import LensPolarization
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
-
-FloatArray = NDArray[np.float64]
 
 
 def _sigma(owner: str, name: str, value: float, hi: float) -> None:

@@ -46,7 +46,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-FloatArray = NDArray[np.float64]
+from twin.core.arrays import Float64Array as FloatArray
 
 LensModel = Literal["fresnel", "ideal"]
 LENS_MODELS: tuple[str, ...] = ("fresnel", "ideal")

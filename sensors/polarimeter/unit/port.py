@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from sensors.polarimeter.optics.surface import (
     N_ACRYLIC,
@@ -22,9 +22,7 @@ from sensors.polarimeter.optics.surface import (
     refract,
 )
 from sensors.polarimeter.unit.fisheye import Housing
-
-FloatArray = NDArray[np.floating]
-BoolArray = NDArray[np.bool_]
+from twin.core.arrays import BoolArray, FloatArray
 
 
 class PortTransmission(NamedTuple):

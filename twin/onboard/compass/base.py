@@ -28,12 +28,11 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.extensions import COMPASS_METHODS
 from twin.core.frames import euler_to_dcm, wrap_pi
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,9 +20,6 @@ import math
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
-
-FloatArray = NDArray[np.float64]
 
 
 @njit(cache=True, inline="always")

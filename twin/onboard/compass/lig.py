@@ -69,6 +69,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
 from twin.onboard.compass import kernels
 from twin.onboard.compass.base import (
@@ -79,8 +80,6 @@ from twin.onboard.compass.base import (
     finish_fix,
     no_fix,
 )
-
-FloatArray = NDArray[np.float64]
 
 _MAD_TO_SIGMA = 1.4826
 

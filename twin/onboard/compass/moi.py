@@ -63,6 +63,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
 from twin.onboard.compass.base import (
     CompassFix,
@@ -74,7 +75,6 @@ from twin.onboard.compass.base import (
 from twin.onboard.lens import compensate_grid
 from twin.onboard.polarization import stokes_from_mosaic
 
-FloatArray = NDArray[np.float64]
 Grid = Literal["superpixel", "interpolate"]
 MethodName = Literal["moi", "patz", "ht"]
 

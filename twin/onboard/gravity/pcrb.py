@@ -21,12 +21,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.core.arrays import Float64Array as FloatArray
 from twin.core.gravity_map import GravityGrid
-
-FloatArray = NDArray[np.float64]
-
 
 #: Table 1's Q_t = diag(0.01², 0.01²) under its two readings, per axis (m²/s). The paper prints
 #: "m²/s"; the twin read km²/s before. One scalar look a step leaves the INS's variance growth

@@ -33,12 +33,10 @@ import math
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
 
 from sensors.polarimeter.optics import column_kernel as ck
 from sensors.polarimeter.optics import scattering
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 #: The aureole's taper starts here (degrees from the refracted sun) and reaches 0 at the last
 #: ring's outer edge; inside it the coarse bins hold almost nothing of the sun's light.

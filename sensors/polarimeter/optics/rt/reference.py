@@ -41,15 +41,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
 from sensors.polarimeter.optics import scattering
 from sensors.polarimeter.optics.rt import kernel
 from sensors.polarimeter.optics.sky import SkySpec, sky_radiance
 from sensors.polarimeter.optics.surface import N_AIR, fresnel_elements
 from sensors.polarimeter.optics.waves import cox_munk_variances
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 #: Default depth planes, optical depths τ = c z (0 is just below the surface).
 DEFAULT_PLANES: tuple[float, ...] = (

@@ -23,7 +23,6 @@ import sys
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from sensors.polarimeter.optics.rt import reference
 from sensors.polarimeter.optics.rt.table import (
@@ -39,8 +38,7 @@ from sensors.polarimeter.optics.rt.table import (
     cache_dir,
 )
 from sensors.polarimeter.optics.sky import SkySpec
-
-FloatArray = NDArray[np.floating]
+from twin.core.arrays import FloatArray
 
 #: Histories per sky node for the shipped tables (as many as the sun's: with half as many the
 #: bins' noise, ~4 %, showed in the fast path's interpolation).

@@ -56,11 +56,11 @@ from numpy.typing import NDArray
 
 from sensors.polarimeter.optics import scattering
 from sensors.polarimeter.optics.rt import decompose, reference
+from twin.core.arrays import FloatArray
 
 if TYPE_CHECKING:
     from sensors.polarimeter.optics.rt.sky_table import SkyTable
 
-FloatArray = NDArray[np.floating]
 
 #: Air zenith angles of the sun at which the table is computed (degrees). 7.5° apart to 60°,
 #: closer towards the horizon: between nodes 15° apart the light 10–30° from the refracted sun
