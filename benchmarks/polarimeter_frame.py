@@ -123,6 +123,16 @@ def _run_tree(tree: Path, repeats: int) -> list[dict]:
     return json.loads((tree / "benchmarks/results/polarimeter_frame.json").read_text())["rows"]
 
 
+TIMES = (
+    "optics_ms",
+    "exact_optics_ms",
+    "sensor_ms",
+    "frame_ms",
+    "occlusion_ms",
+    "frame_with_occlusion_ms",
+)
+
+
 def _summarise(runs: list[list[dict]]) -> list[dict]:
     """Per preset, the median of each time over the rounds, with its [min, max]."""
     out = []
@@ -134,16 +144,6 @@ def _summarise(runs: list[list[dict]]) -> list[dict]:
             row[f"{key}_range"] = [float(min(vals)), float(max(vals))]
         out.append(row)
     return out
-
-
-TIMES = (
-    "optics_ms",
-    "exact_optics_ms",
-    "sensor_ms",
-    "frame_ms",
-    "occlusion_ms",
-    "frame_with_occlusion_ms",
-)
 
 
 def _cell(r: dict, key: str) -> str:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.onboard.compass import CompassMethod, no_fix
+from twin.onboard.compass import CompassFix, CompassMethod, no_fix
 from twin.onboard.compass.base import Frame, finish_fix
 from twin.onboard.polarization import stokes_from_mosaic
 
@@ -55,7 +55,7 @@ class SunSpotCompass(CompassMethod):
     name = "sun_spot"
     config_type = SunSpotConfig
 
-    def solve_frame(self, frame: Frame) -> object:
+    def solve_frame(self, frame: Frame) -> CompassFix:
         cfg = self.config
         cal, ctx = frame.calibration, frame.ctx
         img = stokes_from_mosaic(frame.raw, cal.layout_deg, black_level_dn=cal.black_level_dn)

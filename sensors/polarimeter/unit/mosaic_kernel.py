@@ -45,15 +45,21 @@ def fma32(typingctx, a, b, c):
     return sig, codegen
 
 
+@njit(cache=True, inline="always")
+def _charge(stokes, analysis, t_s, dark_e, k):
+    """t·(S·a)[k] + dark: ``cv2.transform``'s row [t, t, t, dark] on p = S ∘ a, its FMAs."""
+    p0 = stokes[3 * k] * analysis[3 * k]
+    p1 = stokes[3 * k + 1] * analysis[3 * k + 1]
+    p2 = stokes[3 * k + 2] * analysis[3 * k + 2]
+    return fma32(t_s, p2, fma32(t_s, p0, t_s * p1)) + dark_e
+
+
 @njit(cache=True, error_model="numpy")
 def expected_charge(stokes, analysis, t_s, dark_e, out):
     """out[k] = max(t·(S·a)[k] + dark, 0) for flat (3 m,) Stokes and analysis, (m,) out."""
     zero = np.float32(0.0)
     for k in range(out.shape[0]):
-        p0 = stokes[3 * k] * analysis[3 * k]
-        p1 = stokes[3 * k + 1] * analysis[3 * k + 1]
-        p2 = stokes[3 * k + 2] * analysis[3 * k + 2]
-        out[k] = max(fma32(t_s, p2, fma32(t_s, p0, t_s * p1)) + dark_e, zero)
+        out[k] = max(_charge(stokes, analysis, t_s, dark_e, k), zero)
 
 
 @njit(cache=True, error_model="numpy")
@@ -61,10 +67,7 @@ def add_hot(stokes, analysis, t_s, dark_e, index, extra, out):
     """out[i] = max(t·(S·a)[i] + dark + extra, 0) at the hot pixels ``index`` (the extra dark)."""
     zero = np.float32(0.0)
     for i in index:
-        p0 = stokes[3 * i] * analysis[3 * i]
-        p1 = stokes[3 * i + 1] * analysis[3 * i + 1]
-        p2 = stokes[3 * i + 2] * analysis[3 * i + 2]
-        out[i] = max((fma32(t_s, p2, fma32(t_s, p0, t_s * p1)) + dark_e) + extra, zero)
+        out[i] = max(_charge(stokes, analysis, t_s, dark_e, i) + extra, zero)
 
 
 @njit(cache=True, error_model="numpy")
