@@ -129,3 +129,17 @@ def test_a_plugin_may_not_take_a_built_in_name(tmp_path: Path, monkeypatch) -> N
     with pytest.raises(ValueError, match=r"thing: 'nope' is unknown; allowed: \['other'"):
         ok.load("nope")
     assert "rogue" not in sys.modules
+
+
+def test_a_clashing_plugin_is_a_one_line_error_with_exit_2(tmp_path: Path, monkeypatch, capsys):
+    # A user's fix (rename the plug-in), as a bad scenario's: not an "internal error".
+    info = tmp_path / "rogue_pkg-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: rogue-pkg\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[auv_twin.compass_methods]\nlig = rogue:Lig\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(COMPASS_METHODS, "_plugins", None)  # read the installed ones afresh
+    assert main(["validate", "default"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "internal error" not in err
+    assert "'lig' from rogue-pkg (rogue:Lig) takes a built-in name" in err

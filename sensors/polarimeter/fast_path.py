@@ -21,9 +21,11 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from sensors.polarimeter import chain_kernel
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
+from sensors.polarimeter.optics.sky import sun_vector as sky_vector
 from sensors.polarimeter.unit import camera as camera_mod
 from sensors.polarimeter.unit import port as port_mod
 from twin.core.arrays import FloatArray
@@ -210,6 +212,10 @@ def _scatter_rows(flat: FloatArray, idx: NDArray[np.intp], rows: FloatArray) -> 
 class FastPath:
     """The fast path's part of the polarimeter (a mixin of ``Polarimeter``; module docstring)."""
 
+    #: Render points under a flat sea with :mod:`~sensors.polarimeter.chain_kernel` (one
+    #: compiled pass); False: the numpy chain it is tested against.
+    compiled_chain: bool = True
+
     def _fast_plan(self, port: port_mod.PortRays) -> _FastPlan | None:
         """The coarse grid for this port (cached), or None where only the exact chain applies."""
         cam = self.camera
@@ -232,7 +238,7 @@ class FastPath:
     def _render_points(
         self,
         rays: FloatArray,
-        basis: FloatArray,
+        basis: FloatArray | tuple[FloatArray, NDArray[np.intp]],
         psf: FloatArray,
         c_cn: NDArray[np.float64],
         fc: _Frame,
@@ -249,6 +255,20 @@ class FastPath:
         """
         o = self.optics
         scat = None
+        if fc.in_water and parts != "direct":
+            assert self._column is not None and fc.state is not None
+            sun = sky_vector(fc.sun)
+            k = self._column._kernel_args(fc.state, True, True)
+            if k is not None and self.compiled_chain and chain_kernel.applies(o.sky, sun):
+                # One compiled pass per ray: the same chain (chain_kernel's docstring).
+                if not isinstance(basis, tuple):
+                    basis = (basis, np.arange(len(rays)))
+                return chain_kernel.render_points(
+                    rays, basis, psf, c_cn, self.n_water, o.sky, sun, k,
+                    self._photon_scale, occluded, parts == "split",
+                )  # fmt: skip
+        if isinstance(basis, tuple):
+            basis = np.take(basis[0], basis[1], axis=1)
         if fc.in_water:
             assert self._column is not None and fc.state is not None
             trans = transmission_mod.surface_transmission(rays, self.n_water, rotation=c_cn)
@@ -365,7 +385,7 @@ class FastPath:
         points = plan.points[use]
         tot_c, sees_c, scat_c = self._render_points(
             plan.rays[use],
-            np.take(plan.basis, use, axis=1),
+            (plan.basis, use),
             plan.psf[use],
             c_cn,
             fc,
@@ -384,7 +404,7 @@ class FastPath:
         idx = plan.pixels(cells)
         st_r, sees_r, _ = self._render_points(
             plan.gather_rays(idx),
-            cam.sensor_basis_at(idx),
+            (cam.sensor_basis, idx),
             plan.psf_full[idx],
             c_cn,
             fc,

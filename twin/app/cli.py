@@ -15,6 +15,7 @@ with held(raise_after=False) as _startup:
     import scenarios
     from scenarios import Scenario, ScenarioError
     from twin.app import render
+    from twin.core.extensions import ExtensionError
 
 
 def writable_out(out: str | Path) -> Path | None:
@@ -375,6 +376,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\ninterrupted", file=sys.stderr)
         return 130
+    except ExtensionError as exc:  # a plug-in's fault the user can fix, as a bad scenario's
+        if os.environ.get("AUV_TWIN_DEBUG"):
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     except OSError as exc:
         if os.environ.get("AUV_TWIN_DEBUG"):
             raise

@@ -28,6 +28,14 @@ from importlib import metadata
 from typing import Any
 
 
+class ExtensionError(ValueError):
+    """A registry entry a user can fix.
+
+    An unknown name, a plug-in that takes a built-in name or does not import. The command line
+    prints it as one line and exits 2, as it does a bad scenario.
+    """
+
+
 @dataclass
 class ExtensionPoint:
     """One registry: names → entry points, built in and from installed packages.
@@ -52,7 +60,7 @@ class ExtensionPoint:
             for ep in metadata.entry_points(group=self.group):
                 if ep.name in self.builtins:
                     dist = ep.dist.name if ep.dist is not None else "an installed package"
-                    raise ValueError(
+                    raise ExtensionError(
                         f"{self.kind} {ep.name!r} from {dist} ({ep.value}) takes a built-in "
                         f"name ({self.builtins[ep.name]}); rename it in that package's "
                         f"[project.entry-points.{self.group!r}]"
@@ -94,21 +102,25 @@ class ExtensionPoint:
                 this extension point takes.
 
         Raises:
-            ValueError: Unknown name (the message lists the allowed ones), or an entry point
+            ExtensionError: Unknown name (the message lists the allowed ones), or an entry point
                 that does not import (the message names it and the import error).
         """
         if name in self._loaded:
             return self._loaded[name]
         target = self.builtins.get(name) or self.plugins().get(name)
         if target is None:
-            raise ValueError(f"{self.kind}: {name!r} is unknown; allowed: {list(self.names())}")
+            raise ExtensionError(
+                f"{self.kind}: {name!r} is unknown; allowed: {list(self.names())}"
+            )
         module, _, attr = target.partition(":")
         try:
             obj = importlib.import_module(module)
             for part in attr.split(".") if attr else ():
                 obj = getattr(obj, part)
         except (ImportError, AttributeError) as exc:
-            raise ValueError(f"{self.kind} {name!r} ({target}) does not import: {exc}") from None
+            raise ExtensionError(
+                f"{self.kind} {name!r} ({target}) does not import: {exc}"
+            ) from None
         if check is not None:
             check(name, obj)
         self._loaded[name] = obj

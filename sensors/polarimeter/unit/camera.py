@@ -283,6 +283,11 @@ class Camera:
         return np.concatenate([r_s, t_s]).reshape(6, -1).astype(self.dtype)
 
     @property
+    def sensor_basis(self) -> FloatArray:
+        """(6, H·W) the sensor axes r_s, t_s of every pixel (:meth:`sensor_basis_at`'s source)."""
+        return self._sensor_basis_flat
+
+    @property
     def sensor_reference(self) -> FloatArray:
         """(H, W, 3) per pixel, the 3-D axis ⊥ the ray that the lens maps onto the sensor's +x axis.
 
