@@ -109,9 +109,7 @@ class ExtensionPoint:
             return self._loaded[name]
         target = self.builtins.get(name) or self.plugins().get(name)
         if target is None:
-            raise ExtensionError(
-                f"{self.kind}: {name!r} is unknown; allowed: {list(self.names())}"
-            )
+            raise ExtensionError(f"{self.kind}: {name!r} is unknown; allowed: {list(self.names())}")
         module, _, attr = target.partition(":")
         try:
             obj = importlib.import_module(module)
