@@ -86,8 +86,8 @@ from scenarios.schema import (
     WaypointLeg,
     nav_variants,
 )
-from sensors.polarimeter.optics.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
-from twin.core.extensions import INS_ONLY
+from twin.core.extensions import INS_ONLY, SCENARIO_CHECKS
+from twin.core.options import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 
 # ---- error text --------------------------------------------------------------------------------
 
@@ -917,6 +917,11 @@ def _time_span_checks(report: _Report, start: datetime | None, duration: float |
         )
 
 
+def _callable_check(name: str, obj: object) -> None:
+    if not callable(obj):
+        raise TypeError(f"scenario check {name!r} is {type(obj).__name__}; expected a function")
+
+
 def _buildable_checks(scenario: Scenario, source: str) -> None:
     """Build every sensor exactly as a run does; report what that would raise.
 
@@ -924,11 +929,11 @@ def _buildable_checks(scenario: Scenario, source: str) -> None:
     ``run`` would reject deep inside (unknown presets, bad ``*_overrides`` fields, a binning that
     leaves no image, a compass rate above the camera's frame rate).
     """
-    # Heavy (mujoco, the optics): only when needed.
-    from twin.sim.build import check_navigation
-    from twin.world.assembly import check_sensors
-
-    problems = check_sensors(scenario) + check_navigation(scenario)
+    # The checks by name (twin.core.extensions.SCENARIO_CHECKS): heavy (mujoco, the optics),
+    # imported on first use, and above this layer.
+    problems: list[str] = []
+    for name in SCENARIO_CHECKS.names():
+        problems += SCENARIO_CHECKS.load(name, _callable_check)(scenario)
     if problems:
         raise ScenarioError(problems, source)
 

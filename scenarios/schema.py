@@ -20,14 +20,6 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from typing import Any, Literal, TypeAlias
 
-# The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
-# defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
-# The allowed values their owners declare (the loader checks against them; re-exported).
-from sensors.polarimeter.optics.bubbles import BUBBLE_MODELS as BUBBLE_MODELS
-from sensors.polarimeter.optics.caustics import FLICKER_MODELS as FLICKER_MODELS
-from sensors.polarimeter.optics.particles import PARTICLE_MODELS as PARTICLE_MODELS
-from sensors.polarimeter.optics.scattering import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
-from sensors.polarimeter.unit.lens import LENS_MODELS as LENS_MODELS
 from twin.core.extensions import COMPASS_METHODS, INS_ONLY
 from twin.core.mission import (
     MISSION_KINDS,
@@ -42,6 +34,15 @@ from twin.core.mission import (
     Vec2,
     WaypointLeg,
 )
+
+# The mission plan is the shared contract between the scenario and the vehicle's guidance; it is
+# defined in twin/core/mission.py and re-exported here, where scenario code looks for it.
+# The allowed values their owners declare (the loader checks against them; re-exported).
+from twin.core.options import BUBBLE_MODELS as BUBBLE_MODELS
+from twin.core.options import FLICKER_MODELS as FLICKER_MODELS
+from twin.core.options import LENS_MODELS as LENS_MODELS
+from twin.core.options import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from twin.core.options import PARTICLE_MODELS as PARTICLE_MODELS
 
 __mission_exports__ = (
     MISSION_KINDS,

@@ -7,6 +7,8 @@ The folders are the rooms of the house (docs/architecture.md):
 * ``twin/onboard``: the vehicle computer. It imports only ``twin.onboard`` and ``twin.core``.
 * ``twin/world`` and ``sensors``: the world (truth). They never import the vehicle computer, the
   scorer, the recorder or the app.
+* ``scenarios``: the scenario files' schema and checks. They import only ``scenarios`` and
+  ``twin.core`` (the checks that build the vehicle are named in ``twin.core.extensions``).
 * ``twin/sim``: the stepping core and the vehicle's build; sees both sides, never the
   scorer, the recorder or the front doors.
 * ``twin/scoring``, ``twin/record``: see both sides and the stepping core, never the front doors
@@ -59,6 +61,7 @@ def _violations(folder: Path, allowed: tuple[str, ...]) -> list[str]:
         ("twin/core", ("twin.core",)),
         ("twin/world", ("twin.world", "twin.core", "models", "sensors", "scenarios.schema")),
         ("sensors", ("sensors", "twin.core")),
+        ("scenarios", ("scenarios", "twin.core")),
         (
             "twin/sim",
             ("twin.sim", "twin.core", "twin.onboard", "twin.world", "sensors", "scenarios.schema"),

@@ -162,3 +162,16 @@ STUDY_TRIALS = ExtensionPoint(
         "lig_tank": "twin.campaign.lig_tank:TRIAL",
     },
 )
+
+#: Checks ``validate`` runs after the schema's own, so that it rejects whatever ``run`` would:
+#: each a function ``check(scenario) -> list[str]`` of one-line problems, run in this order.
+#: Declared here, by name, so that the scenario layer reaches the world's build without importing
+#: it (docs/architecture.md); a plug-in sensor adds its own check in this group.
+SCENARIO_CHECKS = ExtensionPoint(
+    "scenario check",
+    "auv_twin.scenario_checks",
+    {
+        "sensors": "twin.world.assembly:check_sensors",
+        "navigation": "twin.sim.build:check_navigation",
+    },
+)

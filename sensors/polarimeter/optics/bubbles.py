@@ -63,8 +63,10 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.core import options
+
 BubbleModel = Literal["hall_novarini", "ideal"]
-BUBBLE_MODELS: tuple[str, ...] = ("hall_novarini", "ideal")
+BUBBLE_MODELS = options.BUBBLE_MODELS  # declared in twin.core.options (the scenario offers it)
 
 _K_PER_M4 = 1.6e10  # Hall–Novarini amplitude, bubbles per m³ per m of radius at U = 13 m/s
 _U_REF_MPS = 13.0

@@ -43,9 +43,10 @@ from numpy.typing import NDArray
 
 from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.optics import waves as waves_mod
+from twin.core import options
 
 FlickerModel = Literal["caustics", "ideal"]
-FLICKER_MODELS: tuple[str, ...] = ("caustics", "ideal")
+FLICKER_MODELS = options.FLICKER_MODELS  # declared in twin.core.options (the scenario offers it)
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(8)
 

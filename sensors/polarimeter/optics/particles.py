@@ -40,9 +40,10 @@ from typing import Literal
 import numpy as np
 
 from sensors.polarimeter.optics.bubbles import BubbleDraw
+from twin.core import options
 
 ParticleModel = Literal["marine_snow", "ideal"]
-PARTICLE_MODELS: tuple[str, ...] = ("marine_snow", "ideal")
+PARTICLE_MODELS = options.PARTICLE_MODELS  # declared in twin.core.options (the scenario offers it)
 
 HG_G = 0.924  # Petzold's average particle phase function (Mobley 1994, Table 3.10)
 ALBEDO = 0.9  # single-scattering albedo of an aggregate (module docstring, [uncertain])

@@ -55,14 +55,13 @@ from scipy.optimize import brentq
 
 from twin.core.arrays import FloatArray
 
-#: Depolarization ratio of sea water, S = 35 (Hu, Zhang et al. 2019; module docstring).
-WATER_DEPOLARIZATION_RATIO = 0.044
-#: Its measured range at S = 35 (a₁ = 1–2e-4); Morel's (1974) older 0.09 is outside it.
-WATER_DEPOLARIZATION_RANGE = (0.0425, 0.046)
-#: Peak linear polarization of ocean particle scattering (Front. Remote Sens. 2021; docstring).
-PARTICLE_DOP_MAX = 0.75
-#: The measured range of the peak over diverse natural waters (same source).
-PARTICLE_DOP_MAX_RANGE = (0.6, 0.9)
+# δ and P with their ranges (module docstring), declared in twin.core.options: the scenario
+# schema offers them from there.
+from twin.core.options import PARTICLE_DOP_MAX as PARTICLE_DOP_MAX
+from twin.core.options import PARTICLE_DOP_MAX_RANGE as PARTICLE_DOP_MAX_RANGE
+from twin.core.options import WATER_DEPOLARIZATION_RANGE as WATER_DEPOLARIZATION_RANGE
+from twin.core.options import WATER_DEPOLARIZATION_RATIO as WATER_DEPOLARIZATION_RATIO
+
 #: Fournier–Forand particle index relative to water (Mobley, Sundman & Boss 2002).
 FF_INDEX = 1.10
 

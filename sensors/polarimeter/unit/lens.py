@@ -46,10 +46,11 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.core import options
 from twin.core.arrays import Float64Array as FloatArray
 
 LensModel = Literal["fresnel", "ideal"]
-LENS_MODELS: tuple[str, ...] = ("fresnel", "ideal")
+LENS_MODELS = options.LENS_MODELS  # declared in twin.core.options (the scenario offers it)
 
 
 @dataclass(frozen=True, slots=True)
