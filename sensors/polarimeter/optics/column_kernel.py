@@ -292,82 +292,6 @@ def reflected_at(
     )  # fmt: skip
 
 
-@njit(cache=True, inline="always")
-def scatter_one(
-    vx, vy, vz, e_a1, e_a2, do_aur, cos_aur, do_refl, single, cz, c, sun, e_sun, beam_q, r0,
-    luts, has_field, f_in, t_in, f_out, t_out, cos_c_frame, cos_c_table, dphi, az, agrid, apsi,
-    dom, up, n_water,
-):  # fmt: skip
-    """The scattered Stokes of one look direction v (ENU): :func:`scatter_pixels`'s body.
-
-    ``e_a1`` = e^(−c z/μ_s) (one per frame), ``e_a2`` = e^(−c z/v_z) (0 for v_z ≤ 0);
-    ``do_aur``, ``cos_aur``, ``do_refl``: :func:`call_constants`; ``sun`` = (s_x, s_y, s_z),
-    ``r0`` = (r0_x, r0_y, r0_z), ``az`` = (cos φ, sin φ); the others are
-    :func:`scatter_pixels`'s. (Thirty arguments at most: CPython passes more as one tuple,
-    which numba cannot inline.)
-    """
-    sx, sy, sz = sun
-    r0x, r0y, r0z = r0
-    cphi, sphi = az
-    si = 0.0
-    sq = 0.0
-    su = 0.0
-    if single:
-        si, sq, su = _single(
-            vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts, e_a1, e_a2
-        )
-    if has_field:
-        # Rows by cos θ (no acos); this water's window edge mapped onto the table's, linearly
-        # in cos θ on either side (the indices differ by < 1 %).
-        inside = vz > cos_c_frame
-        if inside:
-            cz_t = 1.0 - (1.0 - vz) * (1.0 - cos_c_table) / (1.0 - cos_c_frame)
-            grid = f_in
-            tc = t_in
-        else:
-            cz_t = vz * cos_c_table / cos_c_frame if vz > 0.0 else vz
-            grid = f_out
-            tc = t_out
-        # Azimuth from the sun, folded onto [0, π] (U changes sign under the mirror).
-        px = vx * cphi + vy * sphi
-        py = -vx * sphi + vy * cphi
-        sign = 1.0
-        if py < 0.0:
-            py = -py
-            sign = -1.0
-        phi = _atan2_pos(py, px)
-        ti, tq, tu = _lookup(grid, tc, cz_t, phi, dphi)
-        si += ti
-        sq += tq
-        su += sign * tu
-        if do_aur and vx * sx + vy * sy + vz * sz > cos_aur:
-            ai, aq, au = aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom)
-            si += ai
-            sq += aq
-            su += au
-        if do_refl and inside:
-            # v and its mirror v' share the azimuth: phi and sign as above.
-            ri, rq, ru = _reflected(
-                vx, vy, vz, phi, sign, n_water, e_a2, up, t_out, dphi,
-                single, 0.0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
-            )  # fmt: skip
-            si += ri
-            sq += rq
-            su += ru
-    return si, sq, su
-
-
-@njit(cache=True, inline="always")
-def call_constants(has_field, apsi, up, cz, sz):
-    """(do_aur, cos_aur, do_refl, e_a1): what :func:`scatter_one` needs once per call."""
-    do_refl = has_field and up.shape[0] > 1
-    do_aur = has_field and apsi.shape[0] > 1
-    # The aureole's outer edge as a cosine, once (aureole_at tests it again, exactly so).
-    cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
-    e_a1 = math.exp(-cz / max(sz, 1e-3))  # the beam's attenuation to the camera's depth
-    return do_aur, cos_aur, do_refl, e_a1
-
-
 @njit(cache=True, error_model="numpy", fastmath=True)
 def scatter_pixels(
     x, y, z, out,
@@ -389,21 +313,63 @@ def scatter_pixels(
     sun's aureole, :func:`aureole_at`; one row: none); up (the upwelling light at the surface for
     :func:`reflected_at`, the flat sea's share; one row: none); n_water (this water's index).
     """
-    do_aur, cos_aur, do_refl, e_a1 = call_constants(has_field, apsi, up, cz, sz)
-    sun = (sx, sy, sz)
-    r0 = (r0x, r0y, r0z)
-    az = (cphi, sphi)
-    for i in range(x.shape[0]):
+    m = x.shape[0]
+    do_refl = has_field and up.shape[0] > 1
+    do_aur = has_field and apsi.shape[0] > 1
+    # The aureole's outer edge as a cosine, once (aureole_at tests it again, exactly so).
+    cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
+    e_a1 = math.exp(-cz / max(sz, 1e-3))  # the beam's attenuation to the camera's depth
+    for i in range(m):
         vx = float(x[i])
         vy = float(y[i])
         vz = float(z[i])
+        si = 0.0
+        sq = 0.0
+        su = 0.0
         # Transmittance from the surface along v (single scattering's a2, the reflection's t).
         e_a2 = math.exp(-cz / vz) if vz > 0.0 else 0.0
-        si, sq, su = scatter_one(
-            vx, vy, vz, e_a1, e_a2, do_aur, cos_aur, do_refl, single, cz, c, sun, e_sun, beam_q,
-            r0, luts, has_field, f_in, t_in, f_out, t_out, cos_c_frame, cos_c_table, dphi, az,
-            agrid, apsi, dom, up, n_water,
-        )  # fmt: skip
+        if single:
+            si, sq, su = _single(
+                vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts, e_a1, e_a2
+            )
+        if has_field:
+            # Rows by cos θ (no acos); this water's window edge mapped onto the table's, linearly
+            # in cos θ on either side (the indices differ by < 1 %).
+            inside = vz > cos_c_frame
+            if inside:
+                cz_t = 1.0 - (1.0 - vz) * (1.0 - cos_c_table) / (1.0 - cos_c_frame)
+                grid = f_in
+                tc = t_in
+            else:
+                cz_t = vz * cos_c_table / cos_c_frame if vz > 0.0 else vz
+                grid = f_out
+                tc = t_out
+            # Azimuth from the sun, folded onto [0, π] (U changes sign under the mirror).
+            px = vx * cphi + vy * sphi
+            py = -vx * sphi + vy * cphi
+            sign = 1.0
+            if py < 0.0:
+                py = -py
+                sign = -1.0
+            phi = _atan2_pos(py, px)
+            ti, tq, tu = _lookup(grid, tc, cz_t, phi, dphi)
+            si += ti
+            sq += tq
+            su += sign * tu
+            if do_aur and vx * sx + vy * sy + vz * sz > cos_aur:
+                ai, aq, au = aureole_at(vx, vy, vz, sx, sy, sz, cphi, sphi, agrid, apsi, dom)
+                si += ai
+                sq += aq
+                su += au
+            if do_refl and inside:
+                # v and its mirror v' share the azimuth: phi and sign as above.
+                ri, rq, ru = _reflected(
+                    vx, vy, vz, phi, sign, n_water, e_a2, up, t_out, dphi,
+                    single, 0.0, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts,
+                )  # fmt: skip
+                si += ri
+                sq += rq
+                su += ru
         out[0, i] = si
         out[1, i] = sq
         out[2, i] = su
