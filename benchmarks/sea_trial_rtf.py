@@ -129,12 +129,13 @@ def _median_row(runs: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _differences(a: Any, b: Any, path: str = "") -> list[str]:
+    """Each output that differs, as ``path (a → b)``: the size of a change is the evidence."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in sorted(set(a) | set(b)):
             out += _differences(a.get(k), b.get(k), f"{path}.{k}" if path else str(k))
         return out
-    return [] if a == b else [path]
+    return [] if a == b else [f"{path} ({a!r} → {b!r})"]
 
 
 def _loop_ms_per_s(row: dict[str, Any]) -> float:

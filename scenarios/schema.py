@@ -40,6 +40,7 @@ from twin.core.mission import (
 # The allowed values their owners declare (the loader checks against them; re-exported).
 from twin.core.options import BUBBLE_MODELS as BUBBLE_MODELS
 from twin.core.options import FLICKER_MODELS as FLICKER_MODELS
+from twin.core.options import JERLOV_TYPES as JERLOV_TYPES
 from twin.core.options import LENS_MODELS as LENS_MODELS
 from twin.core.options import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 from twin.core.options import PARTICLE_MODELS as PARTICLE_MODELS
@@ -62,11 +63,7 @@ SceneName: TypeAlias = Literal["open_sea", "tank"]
 SCENES: tuple[str, ...] = ("open_sea", "tank")
 
 JerlovType: TypeAlias = Literal["I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"]
-# Jerlov (1976): open-ocean types I..III, coastal types 1C..9C (increasingly turbid). The owner is
-# sensors.polarimeter.optics.water.JERLOV_TYPES (its table's keys), too heavy an import for the
-# schema:
-# tests/scenarios/test_schema.py ties the two.
-JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
+# The Literal for type checkers; the values: twin.core.options.JERLOV_TYPES (test_schema ties them).
 
 CurrentKind: TypeAlias = Literal["none", "constant", "profile", "gauss_markov"]
 CURRENT_KINDS: tuple[str, ...] = ("none", "constant", "profile", "gauss_markov")
@@ -246,7 +243,7 @@ class Optics:
         turbidity: Multiplier on the water type's particle scattering (1 = the Jerlov type).
         wind_speed_mps: Wind speed at 12.5 m for Cox–Munk surface slopes; 0 = flat surface. A
             scenario may give ``wind_beaufort`` (force 0–11) instead: the middle of WMO's range
-            for that force (``scenarios.loader.BEAUFORT_MPS``).
+            for that force (``scenarios.ranges.BEAUFORT_MPS``).
         wind_toward_deg: Compass direction the wind blows toward.
         wavelength_nm: The one wavelength the optics are evaluated at.
         bubbles: ``"hall_novarini"``: the breaking waves' bubbles within a metre or two of the

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 import sensors
-from scenarios.loader import BEAUFORT_MPS
+from scenarios.ranges import BEAUFORT_MPS
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from sensors.polarimeter.unit.hardware import HardwareErrors

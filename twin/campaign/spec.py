@@ -54,7 +54,7 @@ import numpy as np
 
 import scenarios
 from scenarios import ScenarioError
-from scenarios.loader import SEED_MAX
+from scenarios.ranges import SEED_MAX
 from scenarios.schema import Scenario
 from sensors.polarimeter.optics.rt.table import MODEL_VERSION as LIGHT_MODEL_VERSION
 from twin.campaign.results import param_value

@@ -94,12 +94,13 @@ from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported:
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.stokes import meridian_reference
 from twin.core.arrays import FloatArray
+from twin.core.options import JERLOV_TYPES as JERLOV_TYPES
 
 # --------------------------------------------------------------------------------------------
 # Jerlov water types
 # --------------------------------------------------------------------------------------------
 
-JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
+# JERLOV_TYPES: declared in twin.core.options (imported above), the keys of JERLOV_500NM below.
 
 
 @dataclass(frozen=True, slots=True)

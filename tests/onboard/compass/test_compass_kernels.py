@@ -16,13 +16,13 @@ import pytest
 import sensors
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import kernels
-from twin.onboard.compass.lig import (
-    _jacobian_normals,
+from twin.onboard.compass.analysis_grid import (
     analysis_geometry,
-    critical_angle,
     eigen_from_moments,
     smallest_eigenvector,
 )
+from twin.onboard.compass.geometry import critical_angle
+from twin.onboard.compass.lig import _jacobian_normals
 from twin.onboard.compass.pol import pol_constraints
 
 N_W = 1.338

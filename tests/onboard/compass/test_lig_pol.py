@@ -21,8 +21,8 @@ import sensors
 from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import available, create
+from twin.onboard.compass.analysis_grid import analysis_geometry, block_intensity
 from twin.onboard.compass.base import CompassContext
-from twin.onboard.compass.lig import analysis_geometry, block_intensity
 from twin.onboard.polarization import stokes_from_mosaic
 
 UTC = dt.datetime(2021, 7, 31, 4, 0, tzinfo=dt.UTC)

@@ -14,16 +14,14 @@ from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
 from twin.onboard.compass.base import CompassContext
+from twin.onboard.compass.geometry import meridian_basis
 from twin.onboard.compass.roia import RoiaConfig, RoiaMethod, p_scattered, tilt_rad, zenith_crop
-from twin.onboard.compass.snell import (
-    SnellConfig,
-    SnellWindowMethod,
+from twin.onboard.compass.snell import SnellConfig, SnellWindowMethod, robust_sinusoid
+from twin.onboard.compass.working_frame import (
     bin_mosaic,
     binned_calibration,
     binning_for,
     evectors_at,
-    meridian_basis,
-    robust_sinusoid,
     to_stokes,
 )
 

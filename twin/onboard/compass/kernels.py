@@ -2,7 +2,8 @@
 
 POL and LIG end the same way: every usable analysis pixel gives a unit constraint vector v (an
 air-side E-vector for POL, a great-circle normal for LIG) and the sun is the eigenvector of the
-smallest eigenvalue of Σ w v vᵀ / Σ w (:func:`twin.onboard.compass.lig.smallest_eigenvector`).
+smallest eigenvalue of Σ w v vᵀ / Σ w
+(:func:`twin.onboard.compass.analysis_grid.smallest_eigenvector`).
 The numpy chains in ``pol.py`` and ``lig.py`` make ~20 passes over the pixels with an (N, 3)
 temporary each; here one compiled loop per pixel does the same arithmetic (the same formulas, in
 double precision, in the same order per pixel) and keeps only the 3×3 sum: no per-pixel arrays.
@@ -24,7 +25,7 @@ from numba import njit
 
 @njit(cache=True, inline="always")
 def _meridian(x, y, z):  # type: ignore[no-untyped-def]
-    """(e_θ, e_φ) at direction (x, y, z): ``lig.meridian_basis`` for one direction."""
+    """(e_θ, e_φ) at direction (x, y, z): ``geometry.meridian_basis`` for one direction."""
     rxy = math.hypot(x, y)
     if rxy > 1e-12:
         cphi = x / rxy
@@ -37,7 +38,7 @@ def _meridian(x, y, z):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, inline="always")
 def _refract(x, y, n):  # type: ignore[no-untyped-def]
-    """``lig.refract_to_air`` for one level-frame direction: (d_x, d_y, d_z, sin r, sin i)."""
+    """``geometry.refract_to_air`` for one level-frame direction: (d_x, d_y, d_z, sin r, sin i)."""
     sin_r = math.hypot(x, y)
     sin_i = min(n * sin_r, 1.0)
     cos_i = math.sqrt(max(1.0 - sin_i * sin_i, 0.0))

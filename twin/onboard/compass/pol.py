@@ -51,6 +51,15 @@ from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
 from twin.onboard.compass import kernels
+from twin.onboard.compass.analysis_grid import (
+    AnalysisGeometry,
+    block_saturation,
+    eigen_from_moments,
+    frame_prologue,
+    level_rotation,
+    resolve_by_intensity,
+    smallest_eigenvector,
+)
 from twin.onboard.compass.base import (
     CompassFix,
     CompassMethod,
@@ -58,18 +67,7 @@ from twin.onboard.compass.base import (
     finish_fix,
     no_fix,
 )
-from twin.onboard.compass.lig import (
-    AnalysisGeometry,
-    block_saturation,
-    critical_angle,
-    eigen_from_moments,
-    frame_prologue,
-    level_rotation,
-    meridian_basis,
-    refract_to_air,
-    resolve_by_intensity,
-    smallest_eigenvector,
-)
+from twin.onboard.compass.geometry import critical_angle, meridian_basis, refract_to_air
 from twin.onboard.lens import compensate_at
 from twin.onboard.polarization import PolarizationImage, StokesPlanes, stokes_planes_from_mosaic
 

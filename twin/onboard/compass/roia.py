@@ -80,11 +80,8 @@ from twin.onboard.compass.base import (
     finish_fix,
     no_fix,
 )
-from twin.onboard.compass.snell import (
-    evectors_h,
-    meridian_basis,
-    to_stokes,
-)
+from twin.onboard.compass.geometry import meridian_basis
+from twin.onboard.compass.working_frame import evectors_h, to_stokes
 
 
 @dataclass(frozen=True)
