@@ -60,7 +60,6 @@ from scenarios.schema import (
     CURRENT_KINDS,
     FLICKER_MODELS,
     GRAVITY_MAPS,
-    JERLOV_TYPES,
     PARTICLE_MODELS,
     SKY_POLARIZATION_MODELS,
     Current,
@@ -70,6 +69,7 @@ from scenarios.schema import (
     ProfilePoint,
     Water,
 )
+from twin.core.extensions import WATER_BODIES
 from twin.core.options import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 
 
@@ -123,7 +123,7 @@ def read_water(t: _Table | None) -> Water | None:
     density = t.number("density_kg_m3", DENSITY_KG_M3, default=1025.0)
     temperature = t.number("temperature_c", TEMPERATURE_C, default=15.0)
     salinity = t.number("salinity_psu", SALINITY_PSU, default=35.0)
-    jerlov = t.string("jerlov_type", choices=JERLOV_TYPES, default="II")
+    jerlov = t.string("jerlov_type", choices=WATER_BODIES.names(), default="II")
     seabed_given = "seabed_depth_m" in t.data
     seabed = t.number("seabed_depth_m", POSITIVE, default=None)
     peak_p = t.number("particle_peak_polarization", UNIT_INTERVAL, default=PARTICLE_DOP_MAX)

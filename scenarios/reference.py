@@ -28,7 +28,7 @@ from typing import Any
 
 import scenarios
 from scenarios import loader, reading, schema
-from twin.core.extensions import COMPASS_METHODS
+from twin.core.extensions import COMPASS_METHODS, WATER_BODIES
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "scenario-reference.md"
@@ -125,8 +125,9 @@ def _watch() -> Iterator[dict[str, Field]]:
         return original(self, key, default, expected)
 
     # The project's own names only: an installed plug-in's would make the page the machine's.
-    saved = (COMPASS_METHODS._plugins, dict(COMPASS_METHODS._added))
-    COMPASS_METHODS._plugins, COMPASS_METHODS._added = {}, {}
+    saved = [(p, p._plugins, dict(p._added)) for p in (COMPASS_METHODS, WATER_BODIES)]
+    for p, _, _ in saved:
+        p._plugins, p._added = {}, {}
     typed = {name: getattr(reading._Table, name) for name in _TYPED}
 
     def wrap(name: str) -> Any:
@@ -148,7 +149,8 @@ def _watch() -> Iterator[dict[str, Field]]:
         reading._Table._raw = original  # type: ignore[method-assign]
         for name, fn in typed.items():
             setattr(reading._Table, name, fn)
-        COMPASS_METHODS._plugins, COMPASS_METHODS._added = saved
+        for p, plugins, added in saved:
+            p._plugins, p._added = plugins, added
 
 
 def _variants() -> Iterator[dict[str, Any]]:

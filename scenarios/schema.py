@@ -111,13 +111,14 @@ class Water:
     −m12/m11 near 90°; measured 0.6–0.9 over diverse natural waters) and
     ``depolarization_ratio`` (δ of the water molecules; 0.039 fresh, 0.0425–0.046 at S = 35) shape
     the scattering phase matrix; their defaults and sources:
-    :mod:`sensors.polarimeter.optics.scattering`.
+    :mod:`sensors.polarimeter.optics.scattering`. ``jerlov_type`` names the water body: one of
+    Jerlov's types or one an installed package adds (``twin.core.extensions.WATER_BODIES``).
     """
 
     density_kg_m3: float = 1025.0
     temperature_c: float = 15.0
     salinity_psu: float = 35.0
-    jerlov_type: JerlovType = "II"
+    jerlov_type: JerlovType | str = "II"
     seabed_depth_m: float | None = None
     particle_peak_polarization: float = PARTICLE_DOP_MAX
     depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO

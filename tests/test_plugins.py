@@ -1,4 +1,4 @@
-"""Plug-ins: a compass method from an installed package, named in a scenario, run and compared.
+"""Plug-ins: a compass method and a water body from installed packages, named in a scenario.
 
 ``examples/compass_plugin`` is installed by the README's test command (``pip install -e
 examples/compass_plugin``): its only link to the project is the entry point in its own
@@ -20,9 +20,12 @@ import pytest
 
 import scenarios
 from scenarios.schema import nav_variants
+from sensors.polarimeter.optics.water import WaterBody, jerlov_water
+from sensors.polarimeter.spec import OpticsConfig
 from twin.app.cli import main
 from twin.campaign.results import load_campaign_results
-from twin.core.extensions import COMPASS_METHODS, STUDY_TRIALS, ExtensionPoint
+from twin.core.extensions import COMPASS_METHODS, STUDY_TRIALS, WATER_BODIES, ExtensionPoint
+from twin.core.options import JERLOV_TYPES
 from twin.onboard.compass import CompassMethod, available, create
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -143,3 +146,52 @@ def test_a_clashing_plugin_is_a_one_line_error_with_exit_2(tmp_path: Path, monke
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "internal error" not in err
     assert "'lig' from rogue-pkg (rogue:Lig) takes a built-in name" in err
+
+
+# ---- a water body from another package (examples/water_plugin) -------------------------------
+
+HARBOUR = ROOT / "examples" / "water_plugin"
+
+
+def test_the_example_water_body_is_found_and_a_scenario_names_it(tmp_path: Path, capsys) -> None:
+    eps = {ep.name: ep for ep in metadata.entry_points(group=WATER_BODIES.group)}
+    assert eps["turbid_harbour"].value == "harbour_water.bodies:TURBID_HARBOUR"
+    assert eps["turbid_harbour"].dist is not None
+    assert eps["turbid_harbour"].dist.name == "auv-twin-harbour-water"
+    assert WATER_BODIES.names()[: len(JERLOV_TYPES)] == JERLOV_TYPES
+    assert "turbid_harbour" in WATER_BODIES.names()
+    # Its properties reach the optics as the package declares them (3C, particles doubled: the
+    # same arithmetic as the twin's own turbidity = 2 on 3C, written apart).
+    w, ref = jerlov_water("turbid_harbour"), jerlov_water("3C", turbidity=2.0)
+    assert (w.a_per_m, w.b_per_m, w.kd_per_m) == pytest.approx(
+        (ref.a_per_m, ref.b_per_m, ref.kd_per_m), rel=1e-12
+    )
+    assert w.name == "turbid_harbour"
+    assert OpticsConfig(jerlov_type="turbid_harbour").water() == w
+    trial = HARBOUR / "harbour_trial.toml"
+    assert main(["validate", str(trial)]) == 0
+    s = scenarios.load(trial)
+    assert s.water.jerlov_type == "turbid_harbour"
+    assert scenarios.parse_scenario(s.to_dict()) == s
+    # A name nobody declared: the allowed list has the plug-in's too.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(trial.read_text().replace('"turbid_harbour"', '"murky"'))
+    capsys.readouterr()
+    assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "water.jerlov_type" in err and '"murky"' in err and '"turbid_harbour"' in err
+
+
+def test_a_water_body_entry_that_is_not_one_is_a_one_line_error() -> None:
+    WATER_BODIES.add("not_water", object())
+    try:
+        with pytest.raises(ValueError, match=r"'not_water' is object; expected a .*WaterBody"):
+            OpticsConfig(jerlov_type="not_water")
+    finally:
+        WATER_BODIES.remove("not_water")
+    with pytest.raises(
+        ValueError, match=r"WaterBody.a_per_m: -1.0; allowed: a number in \(0, 100\]"
+    ):
+        WaterBody(0.1, -1.0, 0.2, "a citation")
+    with pytest.raises(ValueError, match=r"WaterBody.iop_source: ''"):
+        WaterBody(0.1, 0.05, 0.2, "")

@@ -26,6 +26,7 @@ from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.unit import fisheye as fisheye_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
 from twin.core.arrays import FloatArray
+from twin.core.extensions import WATER_BODIES
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,7 +35,8 @@ class OpticsConfig:
 
     Attributes:
         sky: Sky radiance and polarization model.
-        jerlov_type: Jerlov water type (``water.JERLOV_TYPES``).
+        jerlov_type: The water body: a Jerlov type (``water.JERLOV_TYPES``) or a plug-in's
+            (``twin.core.extensions.WATER_BODIES``).
         turbidity: Multiplier on the type's particle scattering (1 = the type itself).
         particle_dop_max: The particles' peak linear polarization P (scattering.py, sourced).
         depolarization_ratio: The water molecules' depolarization ratio δ (scattering.py).
@@ -72,9 +74,9 @@ class OpticsConfig:
     particles: str = "ideal"
 
     def __post_init__(self) -> None:
-        if self.jerlov_type not in water_mod.JERLOV_TYPES:
+        if self.jerlov_type not in WATER_BODIES.names():
             raise ValueError(
-                f"OpticsConfig.jerlov_type: {self.jerlov_type!r}; allowed: {water_mod.JERLOV_TYPES}"
+                f"OpticsConfig.jerlov_type: {self.jerlov_type!r}; allowed: {WATER_BODIES.names()}"
             )
         if not (math.isfinite(self.wind_toward_deg)):
             raise ValueError(

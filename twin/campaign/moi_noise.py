@@ -5,8 +5,8 @@ paper's hypothetical imager (Table 1: level camera at the zenith, pinhole f = 8 
 2048 columns × 2448 rows, DOP_max = 1, orthographic E-vector projection), the ``case``'s noise,
 then each of the three axis methods (MOI, PATZ, HT: ``twin.onboard.compass.moi.estimate_axis``)
 on the same image. The paper's 2000 trials per elevation are 2000 seeds of this trial
-(scenarios/campaigns/moi_noise.toml); ``benchmarks/moi_noise_study.py`` is the same study in one
-process.
+(scenarios/campaigns/moi_noise.toml), the study's one home (its report:
+benchmarks/results/campaigns/moi_noise/report.md).
 
 Cases:
 

@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
 
+from twin.core.options import JERLOV_TYPES
+
 
 class ExtensionError(ValueError):
     """A registry entry a user can fix.
@@ -85,7 +87,7 @@ class ExtensionPoint:
             if self._loaded.get(name) is not obj:
                 raise ValueError(f"{self.kind} {name!r} is already registered ({known})")
         self._added[name] = obj
-        self._loaded[name] = obj
+        self._loaded.pop(name, None)  # checked on its first load, as an imported entry is
 
     def remove(self, name: str) -> None:
         """Undo :meth:`add` (tests)."""
@@ -107,6 +109,12 @@ class ExtensionPoint:
         """
         if name in self._loaded:
             return self._loaded[name]
+        if name in self._added:
+            obj = self._added[name]
+            if check is not None:
+                check(name, obj)
+            self._loaded[name] = obj
+            return obj
         target = self.builtins.get(name) or self.plugins().get(name)
         if target is None:
             raise ExtensionError(f"{self.kind}: {name!r} is unknown; allowed: {list(self.names())}")
@@ -114,8 +122,9 @@ class ExtensionPoint:
         try:
             obj = importlib.import_module(module)
             for part in attr.split(".") if attr else ():
-                obj = getattr(obj, part)
-        except (ImportError, AttributeError) as exc:
+                # A part indexes a mapping (a table of entries: "water:JERLOV_500NM.1C").
+                obj = obj[part] if isinstance(obj, Mapping) else getattr(obj, part)
+        except (ImportError, AttributeError, KeyError) as exc:
             raise ExtensionError(
                 f"{self.kind} {name!r} ({target}) does not import: {exc}"
             ) from None
@@ -158,6 +167,7 @@ STUDY_TRIALS = ExtensionPoint(
     {
         "moi_noise": "twin.campaign.moi_noise:TRIAL",
         "snell_turntable": "twin.campaign.snell_turntable:TRIAL",
+        "snell_water": "twin.campaign.snell_water:TRIAL",
         "roia_static": "twin.campaign.roia_static:TRIAL",
         "lig_tank": "twin.campaign.lig_tank:TRIAL",
     },
@@ -174,4 +184,14 @@ SCENARIO_CHECKS = ExtensionPoint(
         "sensors": "twin.world.assembly:check_sensors",
         "navigation": "twin.sim.build:check_navigation",
     },
+)
+
+#: Water bodies (``sensors.polarimeter.optics.water``): a name → its inherent optical properties
+#: at 500 nm, a ``WaterBody`` (absorption, scattering, K_d and where they come from). Built in:
+#: Jerlov's types; a package adds a measured water of its own, which a scenario names in
+#: ``optics.jerlov_type`` (the light field's table for it is computed on first use and cached).
+WATER_BODIES = ExtensionPoint(
+    "water body",
+    "auv_twin.water_bodies",
+    {t: f"sensors.polarimeter.optics.water:JERLOV_500NM.{t}" for t in JERLOV_TYPES},
 )

@@ -94,6 +94,7 @@ from sensors.polarimeter.optics.scattering import (  # noqa: F401  (re-exported:
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.stokes import meridian_reference
 from twin.core.arrays import FloatArray
+from twin.core.extensions import WATER_BODIES, ExtensionError
 from twin.core.options import JERLOV_TYPES as JERLOV_TYPES
 
 # --------------------------------------------------------------------------------------------
@@ -104,13 +105,38 @@ from twin.core.options import JERLOV_TYPES as JERLOV_TYPES
 
 
 @dataclass(frozen=True, slots=True)
-class JerlovEntry:
-    """One Jerlov water type's optical properties at 500 nm (m⁻¹) and where a, b come from."""
+class WaterBody:
+    """A water body's optical properties at 500 nm (m⁻¹) and where they come from.
+
+    The built-in ones are Jerlov's types (:data:`JERLOV_500NM`); a package adds its own through
+    the ``auv_twin.water_bodies`` entry-point group (:data:`twin.core.extensions.WATER_BODIES`,
+    docs/extending.md). The particles' phase function, P and δ are the project's (the scenario's
+    ``optics`` table), whatever the water.
+
+    Attributes:
+        kd_per_m: Diffuse attenuation of downwelling irradiance K_d (> 0).
+        a_per_m: Absorption a (> 0).
+        b_per_m: Scattering b, water molecules included (≥ 0; the molecules' share is
+            min(:data:`B_SEAWATER_500NM`, b)).
+        iop_source: Where a, b and K_d come from (a citation; "assumption: …" where they are).
+    """
 
     kd_per_m: float
     a_per_m: float
     b_per_m: float
     iop_source: str
+
+    def __post_init__(self) -> None:
+        for name, lo_open in (("kd_per_m", True), ("a_per_m", True), ("b_per_m", False)):
+            v = getattr(self, name)
+            ok = isinstance(v, int | float) and math.isfinite(v) and (v > 0 if lo_open else v >= 0)
+            if not ok or v > 100.0:
+                bound = "(0, 100]" if lo_open else "[0, 100]"
+                raise ValueError(f"WaterBody.{name}: {v!r}; allowed: a number in {bound} (1/m)")
+        if not isinstance(self.iop_source, str) or not self.iop_source.strip():
+            raise ValueError(
+                f"WaterBody.iop_source: {self.iop_source!r}; allowed: a citation or an assumption"
+            )
 
 
 _WH22 = "Williamson & Hollins 2022 (measured)"
@@ -118,17 +144,17 @@ _SM15 = "Solonenko & Mobley 2015 (inverted from Kd)"
 
 #: K_d: Jerlov (1976) Table XXVII at 500 nm. a, b at 500 nm: see ``iop_source``. Transcribed from
 #: jerlov 0.22.0 ``data/jerlov1976_kd.csv``, ``williamson2022_iop.csv``, ``solonenko2015_iop.csv``.
-JERLOV_500NM: dict[str, JerlovEntry] = {
-    "I": JerlovEntry(0.027, 0.026, 0.00249, _SM15),
-    "IA": JerlovEntry(0.032, 0.0282, 0.00461, _SM15),
-    "IB": JerlovEntry(0.042, 0.0398, 0.128, _WH22),
-    "II": JerlovEntry(0.070, 0.0529, 0.185, _WH22),
-    "III": JerlovEntry(0.115, 0.0835, 0.297, _WH22),
-    "1C": JerlovEntry(0.14, 0.104, 0.44, _WH22),
-    "3C": JerlovEntry(0.22, 0.144, 0.664, _WH22),
-    "5C": JerlovEntry(0.36, 0.199, 1.23, _WH22),
-    "7C": JerlovEntry(0.58, 0.29, 2.76, _SM15),
-    "9C": JerlovEntry(0.99, 0.543, 3.67, _SM15),
+JERLOV_500NM: dict[str, WaterBody] = {
+    "I": WaterBody(0.027, 0.026, 0.00249, _SM15),
+    "IA": WaterBody(0.032, 0.0282, 0.00461, _SM15),
+    "IB": WaterBody(0.042, 0.0398, 0.128, _WH22),
+    "II": WaterBody(0.070, 0.0529, 0.185, _WH22),
+    "III": WaterBody(0.115, 0.0835, 0.297, _WH22),
+    "1C": WaterBody(0.14, 0.104, 0.44, _WH22),
+    "3C": WaterBody(0.22, 0.144, 0.664, _WH22),
+    "5C": WaterBody(0.36, 0.199, 1.23, _WH22),
+    "7C": WaterBody(0.58, 0.29, 2.76, _SM15),
+    "9C": WaterBody(0.99, 0.543, 3.67, _SM15),
 }
 
 #: Molecular scattering of seawater (S ≈ 35) at 500 nm: Morel (1974), b_w = (8π/3) β_w(90°)
@@ -215,6 +241,14 @@ class WaterOptics:
         return self.b_per_m - self.b_molecular_per_m
 
 
+def _check_water_body(name: str, obj: object) -> None:
+    if not isinstance(obj, WaterBody):
+        raise ExtensionError(
+            f"water body {name!r} is {type(obj).__name__}; expected a "
+            "sensors.polarimeter.optics.water.WaterBody"
+        )
+
+
 def jerlov_water(
     water_type: str,
     turbidity: float = 1.0,
@@ -222,28 +256,33 @@ def jerlov_water(
     particle_dop_max: float = scattering.PARTICLE_DOP_MAX,
     depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO,
 ) -> WaterOptics:
-    """A Jerlov water type's optical properties at 500 nm, optionally made more or less turbid.
+    """A water body's optical properties at 500 nm, optionally made more or less turbid.
 
     ``turbidity`` scales the particulate scattering b_p = b − b_w (e.g. milk in a test tank is
     nearly pure scattering): b = b_w + turbidity · b_p. K_d is rescaled by Kirk's (1984)
     √(a² + G a b) ratio so turbidity = 1 reproduces Jerlov's K_d exactly; a is unchanged.
 
     Args:
-        water_type: One of :data:`JERLOV_TYPES` (case-insensitive).
+        water_type: One of :data:`JERLOV_TYPES` (case-insensitive) or a plug-in's water body
+            (:data:`twin.core.extensions.WATER_BODIES`).
         turbidity: Particulate-scattering multiplier, 0 (particle-free) to 1000.
         particle_dop_max: The particles' peak linear polarization P (:class:`WaterOptics`).
         depolarization_ratio: The water molecules' δ (:class:`WaterOptics`).
 
     Raises:
-        ValueError: an unknown type (the message lists the allowed ones) or turbidity out of range.
+        ValueError: an unknown type (the message lists the allowed ones) or turbidity out of range;
+            ExtensionError (a ValueError) for a plug-in that does not import or is no WaterBody.
     """
-    key = str(water_type).strip().upper()
-    if key not in JERLOV_500NM:
-        raise ValueError(f"water_type must be one of {', '.join(JERLOV_TYPES)}, got {water_type!r}")
+    key = str(water_type).strip()
+    if key.upper() in JERLOV_500NM:
+        key = key.upper()
+    elif key not in WATER_BODIES.names():
+        allowed = ", ".join(WATER_BODIES.names())
+        raise ValueError(f"water_type must be one of {allowed}, got {water_type!r}")
     t = float(turbidity)
     if not (math.isfinite(t) and 0.0 <= t <= 1000.0):
         raise ValueError(f"turbidity must lie in [0, 1000], got {turbidity!r}")
-    e = JERLOV_500NM[key]
+    e = JERLOV_500NM[key] if key in JERLOV_500NM else WATER_BODIES.load(key, _check_water_body)
     b_w = min(B_SEAWATER_500NM, e.b_per_m)
     b = b_w + t * (e.b_per_m - b_w)
     kd = e.kd_per_m * math.sqrt(

@@ -93,7 +93,7 @@ def test_fig8_ideal_frames(cal, elev_deg: float) -> None:
 
 
 def _noisy(aop, xi, rng, crosstalk: bool) -> np.ndarray:
-    """The paper's §4.1.2/4.1.3 noise on the AOPLM image (see benchmarks/moi_noise_study.py)."""
+    """The paper's §4.1.2/4.1.3 noise on the AOPLM image (as twin.campaign.moi_noise adds it)."""
     aoplm = np.mod(aop - xi + np.float32(np.pi / 2), np.float32(np.pi)) - np.float32(np.pi / 2)
     span = float(aoplm.max() - aoplm.min())
     n = rng.standard_normal(size=aop.shape, dtype=np.float32) * np.float32(0.01 * span)
