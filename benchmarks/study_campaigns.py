@@ -3,6 +3,7 @@
     python benchmarks/study_campaigns.py                       # depth_water, time_of_day
     python benchmarks/study_campaigns.py moi_noise --seeds 100 # the MOI study, first 100 trials
     python benchmarks/study_campaigns.py snell_water           # the Snell method vs water
+    python benchmarks/study_campaigns.py snell_attitude snell_waves  # vs tilt, vs sea state
 
 Each campaign runs into ``runs/<name>/`` (resumed: finished runs are kept, so a study can be run
 a slice at a time, ``--seeds`` growing) with the local pool, then ``auv-twin campaign report``'s
@@ -38,6 +39,8 @@ EXTRA_METRICS = {
     "moi_noise": ["flip"],  # how often the sun/anti-sun decision is wrong
     # The Snell-window method measures roll and pitch too; "ok" is the share of frames fixed.
     "snell_water": ["roll_error_deg", "pitch_error_deg", "ok"],
+    "snell_attitude": ["roll_error_deg", "pitch_error_deg", "ok"],
+    "snell_waves": ["roll_error_deg", "pitch_error_deg", "ok"],
 }
 
 

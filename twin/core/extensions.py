@@ -167,7 +167,7 @@ STUDY_TRIALS = ExtensionPoint(
     {
         "moi_noise": "twin.campaign.moi_noise:TRIAL",
         "snell_turntable": "twin.campaign.snell_turntable:TRIAL",
-        "snell_water": "twin.campaign.snell_water:TRIAL",
+        "snell_attitude": "twin.campaign.snell_attitude:TRIAL",
         "roia_static": "twin.campaign.roia_static:TRIAL",
         "lig_tank": "twin.campaign.lig_tank:TRIAL",
     },
