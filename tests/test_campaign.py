@@ -391,6 +391,13 @@ def test_the_shipped_campaigns_validate() -> None:
     starts = sorted({r.scenario["start_utc"] for r in tod.runs})
     assert starts[0] == "2021-09-02T23:00:00Z" and starts[-1] == "2021-09-03T07:00:00Z"
     assert len(starts) == 9 and len(tod.seeds) == 10
+    # The window methods' studies: one trial, three specs (water, tilt, sea state).
+    assert {specs[n].trial for n in ("snell_water", "snell_attitude", "snell_waves")} == {
+        "snell_attitude"
+    }
+    assert len(specs["snell_water"].runs) == 4 * 3 * 2 * 2 * 20
+    assert len(specs["snell_attitude"].runs) == 2 * 19 * 2 * 3
+    assert len(specs["snell_waves"].runs) == 4 * 2 * 19 * 3
     moi = specs["moi_noise"]  # the paper's full study: 2000 trials per elevation and case
     assert moi.trial == "moi_noise" and len(moi.seeds) == 2000 and len(moi.runs) == 6 * 3 * 2000
 
