@@ -722,8 +722,8 @@ class SnellWindowMethod(CompassMethod):
 #: symmetric truncation), the characteristic region out to the window's edge and every pixel
 #: with an AoE (no DoP threshold). Kept from the twin: the working frame binned to 640 px (the
 #: same MAE at both resolutions, benchmarks/results/campaigns/snell_attitude), the fisheye
-#: resampling in place of Zhang's pinhole undistortion (which cannot hold rays past 90°), eq. 15's ½S0
-#: (as printed it has cos 2φ twice), the log-grey reading of "the brightest 70 %", the
+#: resampling in place of Zhang's pinhole undistortion (which cannot hold rays past 90°), eq.
+#: 15's ½S0 (as printed it has cos 2φ twice), the log-grey reading of "the brightest 70 %", the
 #: filters' and Hough's unstated sizes, the brightness rule for the 180° ambiguity and the
 #: no-window / too-dark guards.
 SNELL_PAPER = SnellConfig(
