@@ -4,6 +4,8 @@
     python benchmarks/study_campaigns.py moi_noise --seeds 100 # the MOI study, first 100 trials
     python benchmarks/study_campaigns.py snell_water           # the Snell method vs water
     python benchmarks/study_campaigns.py snell_attitude snell_waves  # vs tilt, vs sea state
+    python benchmarks/study_campaigns.py compass_underwater    # LIG vs POL vs depth and water
+    python benchmarks/study_campaigns.py sea_trials            # the LIG paper's sea trials
 
 Each campaign runs into ``runs/<name>/`` (resumed: finished runs are kept, so a study can be run
 a slice at a time, ``--seeds`` growing) with the local pool, then ``auv-twin campaign report``'s
@@ -41,6 +43,10 @@ EXTRA_METRICS = {
     "snell_water": ["roll_error_deg", "pitch_error_deg", "ok"],
     "snell_attitude": ["roll_error_deg", "pitch_error_deg", "ok"],
     "snell_waves": ["roll_error_deg", "pitch_error_deg", "ok"],
+    # The apparent sun's zenith: its error, and its sign (the drift towards the zenith).
+    "compass_underwater": ["zenith_error_deg", "zenith_bias_deg", "ok"],
+    # The filters' level (the LIG paper's full solar vector drags it) and the gate's share fused.
+    "sea_trials": ["roll_rmse_deg", "pitch_rmse_deg", "compass.fused_fraction"],
 }
 
 

@@ -108,6 +108,19 @@ METRICS: tuple[Quantity, ...] = (
         "a study trial's absolute error of the method's solar azimuth (or heading) against truth",
     ),
     Quantity(
+        "zenith_error_deg",
+        "zenith error",
+        "°",
+        "a study trial's absolute error of the method's solar zenith angle against truth",
+    ),
+    Quantity(
+        "zenith_bias_deg",
+        "zenith bias",
+        "°",
+        "a study trial's signed solar zenith error (negative: the apparent sun towards the zenith)",
+    ),
+    Quantity("ok", "fixed", "", "1 when the method gave a fix on the frame, else 0"),
+    Quantity(
         "flip",
         "sun/anti-sun flip",
         "",

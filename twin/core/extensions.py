@@ -170,6 +170,7 @@ STUDY_TRIALS = ExtensionPoint(
         "snell_attitude": "twin.campaign.snell_attitude:TRIAL",
         "roia_static": "twin.campaign.roia_static:TRIAL",
         "lig_tank": "twin.campaign.lig_tank:TRIAL",
+        "apparent_sun": "twin.campaign.apparent_sun:TRIAL",
     },
 )
 
