@@ -400,6 +400,19 @@ def test_the_shipped_campaigns_validate() -> None:
     assert len(specs["snell_waves"].runs) == 4 * 2 * 19 * 3
     moi = specs["moi_noise"]  # the paper's full study: 2000 trials per elevation and case
     assert moi.trial == "moi_noise" and len(moi.seeds) == 2000 and len(moi.runs) == 6 * 3 * 2000
+    # The two experiments that were benchmark scripts: LIG vs POL under water, the sea trials.
+    cu = specs["compass_underwater"]
+    assert cu.trial == "apparent_sun" and len(cu.runs) == 4 * 6 * 50
+    st = specs["sea_trials"]
+    assert len(st.runs) == 2 * 2 * 2 * 5
+    setups = {
+        (r.scenario["navigation"]["sun_measurement"], r.scenario["navigation"]["gate_probability"])
+        for r in st.runs
+    }
+    assert setups == {(m, g) for m in ("vector", "azimuth") for g in (1.0, 0.999)}
+    depths = {(r.scenario["initial"]["depth_m"], r.scenario["mission"]["legs"][2]["depth_m"])
+              for r in st.runs}  # fmt: skip
+    assert depths == {(10.0, 10.0), (15.0, 15.0)}
 
 
 def test_the_worst_runs_are_flown_again_with_their_recording(tmp_path: Path) -> None:
