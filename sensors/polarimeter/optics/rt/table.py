@@ -30,7 +30,7 @@ held and E_d decays at the deepest planes' rate — the asymptotic regime), and 
 Tables for the Jerlov types (:data:`sensors.polarimeter.optics.water.JERLOV_500NM`, turbidity 1) and
 the default sky (:class:`sensors.polarimeter.optics.sky.SkySpec`) ship in
 ``sensors/polarimeter/optics/data/lightfield_jerlov_500nm.npz``, built by
-``python benchmarks/build_lightfield_table.py``; any other water, or another sky, is computed on
+``python -m sensors.polarimeter.optics.rt.build``; any other water, or another sky, is computed on
 first use (a minute or two on one core for most waters; a sky alone, a fraction of that) and
 cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 """

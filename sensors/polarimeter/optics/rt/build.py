@@ -1,6 +1,6 @@
 """Build the shipped light-field tables: the radiative-transfer reference for every Jerlov type.
 
-    python benchmarks/build_lightfield_table.py [--photons N] [--workers W] [--types I II ...]
+    python -m sensors.polarimeter.optics.rt.build [--photons N] [--workers W] [--types I II ...]
 
 Writes ``sensors/polarimeter/optics/data/lightfield_jerlov_500nm.npz`` (one table per type, at
 turbidity 1, with the scattered light of the default sky model; see
