@@ -453,7 +453,7 @@ def test_the_benchmark_places_the_bound_at_a_measured_q_by_log_log_interpolation
 
     import pandas as pd
 
-    path = Path(__file__).parents[1] / "benchmarks" / "gravity_aided_twin.py"
+    path = Path(__file__).parents[1] / "validation" / "gravity_aided_twin.py"
     spec = importlib.util.spec_from_file_location("gravity_aided_twin", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

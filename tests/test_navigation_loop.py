@@ -81,7 +81,7 @@ def test_fix_errors_are_the_fix_against_the_true_sun_and_heading(short_run) -> N
     # The numbers mean what they say: LIG's heading from the sun is good to a few degrees under
     # 10 m of Jerlov II water, and its solar vector lies within 15 deg of the true sun in the body
     # frame (measured here: a 0.4 deg median; across suns the twin's LIG leans +5.6 [4.8, 6.4]
-    # deg there: benchmarks/results/campaigns/compass_underwater/report.md).
+    # deg there: validation/results/campaigns/compass_underwater/report.md).
     _, m = short_run
     f = m["navigation"]["variants"]["lig"]["compass_fix_errors"]
     assert 0.0 < f["heading_error_rmse_deg"] < 3.0

@@ -185,7 +185,7 @@ def test_free_body_mass_matrix_is_constant_in_body_coordinates(plant: Plant) -> 
 
 # ---- the REMUS 100 turn and heel against Fossen's model ("a REMUS that turns like one") ----
 # PythonVehicleSimulator (PVS, github.com/cybergalactic/PythonVehicleSimulator @ c717e07)
-# vehicles/remus100.py, integrated by benchmarks/turning_vs_pvs.py at 15° rudder, 1525 rpm,
+# vehicles/remus100.py, integrated by validation/turning_vs_pvs.py at 15° rudder, 1525 rpm,
 # ρ = 1026, dt = 0.01 s; its measured figures are the oracle here (results/turning_vs_pvs.md).
 PVS_TURN_DIAMETER_M, PVS_YAW_RATE_DEG_S = 36.923, 7.767
 PVS_STRAIGHT_HEEL_DEG, PVS_TURN_HEEL_DEG = 1.019, 3.005

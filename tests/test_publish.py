@@ -73,6 +73,8 @@ def test_a_tree_is_dirty_for_code_not_for_benchmark_results(tmp_path: Path, monk
     (tmp_path / "benchmarks" / "results").mkdir(parents=True)
     (tmp_path / "benchmarks" / "results" / "table.md").write_text("| a |\n")
     (tmp_path / "benchmarks" / "results" / "table.json").write_text("{}\n")
+    (tmp_path / "validation" / "results" / "campaigns").mkdir(parents=True)
+    (tmp_path / "validation" / "results" / "campaigns" / "groups.csv").write_text("a\n1\n")
     (tmp_path / "NOTES.md").write_text("prose\n")
     assert dirty() is False
     (tmp_path / "code.py").write_text("x = 2\n")

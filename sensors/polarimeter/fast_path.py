@@ -8,7 +8,7 @@ and on the frame's border. :class:`FastPath` is the part of the
 :class:`~sensors.polarimeter.render.Polarimeter` that does it (its ``camera``, ``pspec``,
 ``optics``, ``n_water``, ``_column``, ``_plans``, ``_psf_sigma``, ``_psf_sigma_air`` and
 ``_finish``); its error against the exact chain is measured in
-``tests/sensors/polarimeter/test_render_fast.py`` and ``benchmarks/fast_path_error.py``.
+``tests/sensors/polarimeter/test_render_fast.py`` and ``validation/fast_path_error.py``.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from twin.core.arrays import FloatArray
 
 # The fast path's rough bands (Polarimeter._render_fast), chosen by measuring its error against the
 # exact chain (tests/sensors/polarimeter/test_render_fast.py, docs/polarimeter.md).
-# Inside the edge: 5 cells. 3 cells give the same worst pixel in benchmarks/fast_path_error.py
+# Inside the edge: 5 cells. 3 cells give the same worst pixel in validation/fast_path_error.py
 # but break the thin limit's fast-path bounds (S0 2.4e-3, AoP 0.052°: test_light_limits.py).
 _EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the horizon in air)
 # … and outside it: none. A cell that straddles the edge has a corner inside, within a cell of
@@ -40,7 +40,7 @@ _EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the 
 # window is convex, and its edge bows less than 0.02 px across a cell), where the light (the
 # table's outside rows, single scattering) is as smooth as anywhere. One cell (before
 # 2026-12-06) cost 14 % more exact pixels (22 608 against 19 824, the 612×512 benchmark frame)
-# for the same errors on every scene of benchmarks/fast_path_error.py but two (AoP where
+# for the same errors on every scene of validation/fast_path_error.py but two (AoP where
 # DoP > 0.2, level 10 m: 0.27° → 0.29°; |Δ(S1, S2)|/S0, low sun: 0.021 → 0.023) and the thin
 # limit.
 _EDGE_BAND_OUT_CELLS = 0.0

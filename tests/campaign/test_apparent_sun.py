@@ -30,7 +30,7 @@ def test_the_trial_is_registered_and_checks_its_parameters() -> None:
 def test_pol_holds_in_clear_water_and_its_apparent_sun_drifts_to_the_zenith_with_depth() -> None:
     # Jerlov I at 1 m: POL's solar vector within a degree or two (a broken refraction map or
     # sign gives tens of degrees). 3C at 20 m: multiple scattering draws POL's apparent sun
-    # towards the zenith (benchmarks/results/campaigns/compass_underwater: -13° there against
+    # towards the zenith (validation/results/campaigns/compass_underwater: -13° there against
     # -0.3° at 1 m of I); the same seed is the same sun and attitude in both cells.
     p = dict(DEFAULTS, methods=["pol", "lig"])
     clear = TRIAL.run(dict(p, jerlov_type="I", depth_m=1.0), 4)

@@ -1,6 +1,6 @@
 """The seeds' hardware experiments as study trials: their conditions, checks and determinism.
 
-The full campaigns (20 seeds a cell) are benchmarks (benchmarks/hardware_experiments.py); here
+The full campaigns (20 seeds a cell) are benchmarks (validation/hardware_experiments.py); here
 one session of the cells that need no first-use radiative-transfer table (clear water, a flat
 tank) runs, to show the trial works end to end and is deterministic.
 """
@@ -91,7 +91,7 @@ def test_a_partial_report_keeps_the_other_sections_and_their_provenance():
     import importlib.util
     import pathlib
 
-    path = pathlib.Path(__file__).parents[2] / "benchmarks" / "hardware_experiments.py"
+    path = pathlib.Path(__file__).parents[2] / "validation" / "hardware_experiments.py"
     spec = importlib.util.spec_from_file_location("hardware_experiments", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -1,6 +1,6 @@
 """LIG's horizon-ward zenith bias in clear shallow water comes from the clear sky's gradation.
 
-Shown by switching each candidate cause (benchmarks/lig_bias_cause.py has the full table): the
+Shown by switching each candidate cause (validation/lig_bias_cause.py has the full table): the
 radiative transfer's scattered light off changes nothing, the CIE clear sky's gradation off
 (type 8: type 12's indicatrix, a = 0) removes the bias. POL is unmoved by either.
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "lig_bias_cause.py"
+_PATH = Path(__file__).resolve().parents[2] / "validation" / "lig_bias_cause.py"
 
 
 def _bench():

@@ -6,7 +6,7 @@ paper's hypothetical imager (Table 1: level camera at the zenith, pinhole f = 8 
 then each of the three axis methods (MOI, PATZ, HT: ``twin.onboard.compass.moi.estimate_axis``)
 on the same image. The paper's 2000 trials per elevation are 2000 seeds of this trial
 (scenarios/campaigns/moi_noise.toml), the study's one home (its report:
-benchmarks/results/campaigns/moi_noise/report.md).
+validation/results/campaigns/moi_noise/report.md).
 
 Cases:
 

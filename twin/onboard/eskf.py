@@ -671,7 +671,7 @@ class Eskf:
         tangent of s^n (the sun's azimuth, i.e. the heading): a 1-D update that leaves roll and
         pitch to gravity. Use it when the compass's elevation is biased (under water, the
         refracted and multiply scattered light moves the apparent sun's elevation more than its
-        azimuth: benchmarks/results/campaigns/compass_underwater/report.md). A sun within 5° of
+        azimuth: validation/results/campaigns/compass_underwater/report.md). A sun within 5° of
         the zenith has no usable azimuth: the update is skipped with that reason.
 
         Args:

@@ -45,7 +45,7 @@ PARQUET_KEY = b"auv_twin.provenance"
 _REPO = Path(__file__).resolve().parents[2]
 #: Changes here do not make the tree dirty (:func:`code_version`): the benchmarks' outputs and
 #: the prose (git pathspecs).
-_NOT_INPUTS = (":!benchmarks/results", ":!*.md")
+_NOT_INPUTS = (":!benchmarks/results", ":!validation/results", ":!*.md")
 
 
 def fingerprint(obj: Any) -> str:
@@ -67,10 +67,10 @@ def code_version() -> dict[str, Any]:
 
     The commit is read with ``git`` from the checkout the package runs from; a tree with changes
     to tracked or untracked (not ignored) files is dirty, except under ``benchmarks/results/``
-    and in Markdown files (:data:`_NOT_INPUTS`: what the benchmarks write and the prose, never
-    what a run reads, so one benchmark's fresh table, or a doc edited while a study runs, does
-    not mark a run as made from changed code). Cached per process: a
-    campaign worker asks once.
+    and ``validation/results/`` and in Markdown files (:data:`_NOT_INPUTS`: what the benchmarks
+    and validation studies write and the prose, never what a run reads, so one benchmark's fresh
+    table, or a doc edited while a study runs, does not mark a run as made from changed code).
+    Cached per process: a campaign worker asks once.
     """
     out: dict[str, Any] = {"auv_twin": _dist_version("auv-twin"), "commit": None, "dirty": None}
     if not (_REPO / ".git").exists():

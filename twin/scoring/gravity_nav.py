@@ -11,13 +11,13 @@ beside it (a variant that fused none has no map-aided bound to meet).
 
 The bound is given at the planner's declared Q_t and at each rate of
 :data:`BOUND_Q_GRID_M2_PER_S`, so that a study can place it at the Q_t the INS actually flew
-(``benchmarks/gravity_aided_twin.py`` measures that from the map-free runs).
+(``validation/gravity_aided_twin.py`` measures that from the map-free runs).
 
 What the comparison can and cannot say: the bound is the paper's two-state model, not the
 15-state INS the filter runs, so it bounds a filter whose position error grows as Q_t says. An
 RMSE below the bound means the INS drifted less than Q_t assumes (the bound is then loose, not
 broken); above it, the filter lost what the map offered or the INS drifted more. One
-run is one draw: the benchmark (``benchmarks/gravity_aided_twin.py``) takes RMSE over seeds.
+run is one draw: the benchmark (``validation/gravity_aided_twin.py``) takes RMSE over seeds.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ hills). This module draws maps *by their statistics* instead, each seed an indep
   spectrum, S(k) ∝ exp(−k²L²/4), on a grid padded by 3 L so that the FFT's wrap-around does not
   correlate opposite edges (the same construction as the seafloor's abyssal hills).
 * **Correlation length** L, 5 km by default [assumption: the value issue 28 filed, not a
-  measurement; ``benchmarks/gravity_path_planning.py`` shows the study at 3, 5, 10 and 20 km].
+  measurement; ``validation/gravity_path_planning.py`` shows the study at 3, 5, 10 and 20 km].
 * **Amplitude**: each map is scaled so that its range (max − min over the map) is
   ``range_mgal``, the paper's 78 mGal by default (wang2023 §4). For context, not used: Wang H.
   et al. 2017 (Sensors 17(8):1851, Table 1) give the anomaly's standard deviation in 13 zones of

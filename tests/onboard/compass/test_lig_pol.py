@@ -6,7 +6,7 @@ path-length fall-off, and the multiply scattered light of the radiative-transfer
 centred on the zenith or on the refracted sun), so LIG's elevation carries a bias even in clear
 water, while its azimuth (heading) is protected by the solar-meridian symmetry. POL is nearly
 exact at 2 m and its apparent sun drifts towards the zenith with depth (what transport gives:
-benchmarks/results/campaigns/compass_underwater/report.md).
+validation/results/campaigns/compass_underwater/report.md).
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def test_lig_accurate_clear(ideal, az, el):
     assert abs(dh) < 1.0  # azimuth: protected by the solar-meridian symmetry
     # Elevation: the world's radiance is not sun-centred. The sky's scattered light, brighter
     # towards the sun's azimuth but low in the sky, pulls LIG's apparent sun by 13–23° here
-    # (measured; benchmarks/results/campaigns/compass_underwater/report.md across depth and
+    # (measured; validation/results/campaigns/compass_underwater/report.md across depth and
     # water); a broken
     # fit is off by tens of degrees more.
     assert abs(dz) < 30.0

@@ -149,7 +149,7 @@ def test_snell_noisy_attitude(noisy):
     # A high sun. In the radiative-transfer light field the Snell-window method fails for suns at
     # or below ~50–60° elevation at 2 m of Jerlov II (roll errors of 9–30°, or no Hough line
     # through the zenith): the forward-scattered aureole swamps the rim on the sun's side
-    # (benchmarks/results/campaigns/snell_attitude/report.md). That is a result about the
+    # (validation/results/campaigns/snell_attitude/report.md). That is a result about the
     # method, kept visible there; this test checks the method where it works.
     sun = sun_vec(70, 200)
     for seed, (r, p, h) in enumerate([(10, -20, 45), (-35, 15, 290)]):
@@ -187,7 +187,7 @@ def test_no_fix_dark_and_deep(noisy):
 def test_deterministic(noisy):
     # Sun well inside the window (as test_snell_noisy_attitude): at 40° of elevation the Snell
     # method's brightness test of the 180° ambiguity is marginal in this light field
-    # (benchmarks/results/campaigns/snell_attitude/report.md).
+    # (validation/results/campaigns/snell_attitude/report.md).
     sun = sun_vec(70, 100)
     raw, _ = render(noisy, 10, 5, 33, sun)
     cal = noisy.calibration()

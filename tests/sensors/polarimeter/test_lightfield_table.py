@@ -141,12 +141,12 @@ def test_the_renderer_is_the_reference_ring_by_ring(case):
     """On 1° × 3° bins, summed in rings 2–90° from the refracted sun, at and between nodes.
 
     Before the aureole and the conserving look-up: +26–57 % 5–15° from the sun, −29…−58 % at
-    2–3° (benchmarks/results/renderer_vs_reference.md). Now within 2.5 % + 3 standard errors.
+    2–3° (validation/results/renderer_vs_reference.md). Now within 2.5 % + 3 standard errors.
     """
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[3] / "benchmarks" / "renderer_vs_reference.py"
+    path = Path(__file__).resolve().parents[3] / "validation" / "renderer_vs_reference.py"
     spec = importlib.util.spec_from_file_location("renderer_vs_reference", path)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)

@@ -33,7 +33,7 @@ by the measured DoP). Multiply scattered light in the world's water (a radiative
 solution, docs/polarimeter.md) does not follow the single-scattering E-vector pattern this method
 assumes, so its elevation is biased in deep or turbid water by whatever the transport gives —
 the effect the LIG paper reports, measured here rather than assumed
-(benchmarks/results/campaigns/compass_underwater/report.md).
+(validation/results/campaigns/compass_underwater/report.md).
 
 Quality figures as in :mod:`~twin.onboard.compass.lig` (``residual`` = RMS of eᵀs, ``eigen_gap``
 = κ_2/κ_min, covariance from the eigen-perturbation with one analysis pixel per independent

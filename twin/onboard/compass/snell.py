@@ -21,7 +21,7 @@ How this implementation reads the paper (decisions, each marked in the code):
    that the four analysers of a binned super-pixel sample one point, with the matching
    calibration (``binned_calibration``); everything below runs on that frame. The window is
    ~100 working pixels in radius and every step averages hundreds to thousands of pixels, so
-   full resolution buys no accuracy here (benchmarks/results/campaigns/snell_attitude: the same
+   full resolution buys no accuracy here (validation/results/campaigns/snell_attitude: the same
    MAE at both resolutions, 2.5 s a run against 0.2 s).
 1. **Distortion correction** (§2.4). The paper undistorts with a Zhang pinhole model, which cannot
    hold rays beyond 90° off-axis (a 185° lens tilted 50° sees the window out to 98.6°). Here the
@@ -721,7 +721,7 @@ class SnellWindowMethod(CompassMethod):
 #: 2×2 super-pixel Stokes, the plain centroid of the brightest 70 % (§3.2: no rim fit, no
 #: symmetric truncation), the characteristic region out to the window's edge and every pixel
 #: with an AoE (no DoP threshold). Kept from the twin: the working frame binned to 640 px (the
-#: same MAE at both resolutions, benchmarks/results/campaigns/snell_attitude), the fisheye
+#: same MAE at both resolutions, validation/results/campaigns/snell_attitude), the fisheye
 #: resampling in place of Zhang's pinhole undistortion (which cannot hold rays past 90°), eq.
 #: 15's ½S0 (as printed it has cos 2φ twice), the log-grey reading of "the brightest 70 %", the
 #: filters' and Hough's unstated sizes, the brightness rule for the 180° ambiguity and the
