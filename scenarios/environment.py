@@ -14,6 +14,7 @@ from datetime import UTC, datetime
 from typing import Any
 
 from scenarios.ranges import (
+    ATTENUATION_PER_M,
     BEAUFORT_FORCE,
     BEAUFORT_MPS,
     BERRY_DELTA_DEG,
@@ -37,6 +38,7 @@ from scenarios.ranges import (
     NON_NEGATIVE,
     POSITIVE,
     SALINITY_PSU,
+    SCATTERING_PER_M,
     START_UTC_END,
     START_UTC_MIN,
     TEMPERATURE_C,
@@ -68,9 +70,10 @@ from scenarios.schema import (
     Place,
     ProfilePoint,
     Water,
+    WaterIops,
 )
 from twin.core.extensions import WATER_BODIES
-from twin.core.options import PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from twin.core.options import INLINE_WATER, PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
 
 
 def read_start_utc(top: _Table) -> datetime | None:
@@ -124,6 +127,18 @@ def read_water(t: _Table | None) -> Water | None:
     temperature = t.number("temperature_c", TEMPERATURE_C, default=15.0)
     salinity = t.number("salinity_psu", SALINITY_PSU, default=35.0)
     jerlov = t.string("jerlov_type", choices=WATER_BODIES.names(), default="II")
+    iops_t = t.table("iops", expected="a table: a_per_m, b_per_m, kd_per_m, source")
+    iops, iops_ok = read_water_iops(iops_t)
+    if iops_ok and iops is not None:
+        if "jerlov_type" in t.data:
+            t.report.add(
+                t.at("jerlov_type"),
+                f"{_show(t.data['jerlov_type'])} and [water.iops] both name the water; "
+                "give one of them",
+            )
+            jerlov = None
+        else:
+            jerlov = INLINE_WATER
     seabed_given = "seabed_depth_m" in t.data
     seabed = t.number("seabed_depth_m", POSITIVE, default=None)
     peak_p = t.number("particle_peak_polarization", UNIT_INTERVAL, default=PARTICLE_DOP_MAX)
@@ -133,9 +148,28 @@ def read_water(t: _Table | None) -> Water | None:
     t.report.seabed_m = seabed
     t.finish()
     values = (density, temperature, salinity, jerlov, peak_p, delta)
-    if not _all_set(*values) or (seabed_given and seabed is None):
+    if not _all_set(*values) or (seabed_given and seabed is None) or not iops_ok:
         return None
-    return Water(density, temperature, salinity, jerlov, seabed, peak_p, delta)
+    return Water(density, temperature, salinity, jerlov, seabed, peak_p, delta, iops)
+
+
+def read_water_iops(t: _Table | None) -> tuple[WaterIops | None, bool]:
+    """``[water.iops]``: (the water's own IOPs or None when absent, whether the table is valid)."""
+    if t is None:
+        return None, False
+    if not t.data:
+        return None, True
+    a = t.number("a_per_m", ATTENUATION_PER_M)
+    b = t.number("b_per_m", SCATTERING_PER_M)
+    kd = t.number("kd_per_m", ATTENUATION_PER_M)
+    source = t.string("source", non_empty=True, expected="a citation, or 'assumption: ...'")
+    t.finish()
+    if a is not None and kd is not None and kd < a:
+        # K_d ≈ (a + b_b)/μ̄_d with μ̄_d ≤ 1: diffuse light cannot fade slower than it is absorbed.
+        t.report.add(t.at("kd_per_m"), f"{kd!r} is below a_per_m = {a!r}; allowed: K_d >= a (m^-1)")
+        return None, False
+    iops = _build(WaterIops, a_per_m=a, b_per_m=b, kd_per_m=kd, source=source)
+    return iops, iops is not None
 
 
 _CURRENT_KEYS = {

@@ -36,6 +36,7 @@ OUT = ROOT / "docs" / "scenario-reference.md"
 #: Units from a field name's suffix (the project's naming rule: a unit in every name).
 UNITS: tuple[tuple[str, str], ...] = (
     ("_kg_m3", "kg/m³"),
+    ("_per_m", "m⁻¹"),
     ("_mps", "m/s"),
     ("_rad_s", "rad/s"),
     ("_deg", "°"),
@@ -65,6 +66,8 @@ SECTIONS: Mapping[str, type] = {
     "autopilot": schema.Autopilot,
     "recording": schema.Recording,
 }
+#: Sub-tables with their own dataclass (their fields' descriptions come from it).
+SUBSECTIONS: Mapping[str, type] = {"water.iops": schema.WaterIops}
 
 
 @dataclasses.dataclass
@@ -174,6 +177,11 @@ def _variants() -> Iterator[dict[str, Any]]:
         doc = copy.deepcopy(base)
         doc["gravity"] = {"map": kind}
         yield doc
+    # The water named by its own IOPs instead of a type (Jerlov II's values: a valid document).
+    doc = copy.deepcopy(base)
+    del doc["water"]["jerlov_type"]
+    doc["water"]["iops"] = {"a_per_m": 0.0529, "b_per_m": 0.185, "kd_per_m": 0.07, "source": "-"}
+    yield doc
 
 
 def collect() -> dict[str, Field]:
@@ -228,10 +236,21 @@ def _default(f: Field) -> str:
     return f"`{value!r}`" if not isinstance(value, str) else f'`"{value}"`'
 
 
+def _meaning(docs: Mapping[str, Mapping[str, str]], path: str) -> str:
+    """A field's description: its own table's dataclass, else its top-level table's."""
+    parent, _, leaf = path.replace("[]", "").rpartition(".")
+    top = parent.split(".", 1)[0]
+    return _plain_rst(docs.get(parent, {}).get(leaf) or docs.get(top, {}).get(leaf, ""))
+
+
+def _docs() -> dict[str, dict[str, str]]:
+    return {key: _attribute_docs(cls) for key, cls in {**SECTIONS, **SUBSECTIONS}.items()}
+
+
 def markdown() -> str:
     """The reference page."""
     fields = collect()
-    docs = {top: _attribute_docs(cls) for top, cls in SECTIONS.items()}
+    docs = _docs()
     lines = [
         "# Scenario field reference",
         "",
@@ -257,7 +276,7 @@ def markdown() -> str:
         lines += ["| field | accepts | default | unit | meaning |", "|---|---|---|---|---|"]
         for f in group:
             leaf = f.path.rsplit(".", 1)[-1]
-            meaning = _plain_rst(docs.get(top, {}).get(leaf, "")).replace("|", "\\|")
+            meaning = _meaning(docs, f.path).replace("|", "\\|")
             accepts = f.expected.replace("|", "\\|")
             lines.append(f"| `{f.path}` | {accepts} | {_default(f)} | {_unit(leaf)} | {meaning} |")
     return "\n".join(lines) + "\n"
@@ -272,7 +291,7 @@ def json_schema() -> dict[str, Any]:
     rules (a seabed below the mission, a tank's walls) are its alone.
     """
     fields = collect()
-    docs = {top: _attribute_docs(cls) for top, cls in SECTIONS.items()}
+    docs = _docs()
     root: dict[str, Any] = {
         # Draft 7: what TOML language servers (Taplo) read.
         "$schema": "http://json-schema.org/draft-07/schema#",
@@ -302,8 +321,7 @@ def json_schema() -> dict[str, Any]:
             if key == "type" and entry.get("type") == "array":
                 continue  # an array of tables already described by its items
             entry.setdefault(key, value)
-        top = parts[0] if len(parts) > 1 else ""
-        text = _plain_rst(docs.get(top, {}).get(leaf, "")) or f.expected
+        text = _meaning(docs, path) or f.expected
         entry.setdefault("description", text)
         default = getattr(f.default, "value", f.default)
         if f.default is not reading._MISSING and type(default) is not object:

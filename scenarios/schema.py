@@ -103,6 +103,26 @@ class Place:
 
 
 @dataclass(frozen=True, slots=True)
+class WaterIops:
+    """A water's own inherent optical properties at 500 nm, given in the scenario.
+
+    Attributes:
+        a_per_m: Absorption coefficient a (m⁻¹), in (0, 100].
+        b_per_m: Scattering coefficient b, the water molecules' share included (m⁻¹), in
+            [0, 100]; the particles' share (b minus sea water's 0.0029) scatters with the project's
+            Fournier–Forand phase function, P and δ.
+        kd_per_m: Diffuse attenuation of downwelling irradiance K_d (m⁻¹), in (0, 100] and at
+            least a (K_d ≈ (a + b_b)/μ̄_d with μ̄_d ≤ 1).
+        source: Where a, b and K_d come from: a citation of the measurement, or "assumption: …".
+    """
+
+    a_per_m: float
+    b_per_m: float
+    kd_per_m: float
+    source: str
+
+
+@dataclass(frozen=True, slots=True)
 class Water:
     """The water body.
 
@@ -112,7 +132,24 @@ class Water:
     ``depolarization_ratio`` (δ of the water molecules; 0.039 fresh, 0.0425–0.046 at S = 35) shape
     the scattering phase matrix; their defaults and sources:
     :mod:`sensors.polarimeter.optics.scattering`. ``jerlov_type`` names the water body: one of
-    Jerlov's types or one an installed package adds (``twin.core.extensions.WATER_BODIES``).
+    Jerlov's types or one an installed package adds (``twin.core.extensions.WATER_BODIES``);
+    or ``iops`` (the ``[water.iops]`` table) gives the water's own a, b and K_d with their
+    source, and then ``jerlov_type`` is ``"inline"`` (a light-field table for those values is
+    computed on first use and cached).
+
+    Attributes:
+        density_kg_m3: Sea water's density (buoyancy and the depth gauge's pressure).
+        temperature_c: Water temperature (the refractive index, Quan & Fry).
+        salinity_psu: Practical salinity (the refractive index; δ depends on it too).
+        jerlov_type: The water body's name: a Jerlov type or an installed package's water body;
+            ``"inline"`` when ``[water.iops]`` gives the water's own properties (not both).
+        iops: The water's own absorption, scattering and K_d at 500 nm with their source
+            (``[water.iops]``), instead of a named water body.
+        seabed_depth_m: Depth of a flat seabed (none: bottomless open sea).
+        particle_peak_polarization: The particles' peak linear polarization P (−m12/m11 near
+            90°; measured 0.6–0.9).
+        depolarization_ratio: The water molecules' depolarization ratio δ (0.0425–0.046 at
+            S = 35).
     """
 
     density_kg_m3: float = 1025.0
@@ -122,6 +159,7 @@ class Water:
     seabed_depth_m: float | None = None
     particle_peak_polarization: float = PARTICLE_DOP_MAX
     depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO
+    iops: WaterIops | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -579,6 +617,8 @@ class Scenario:
         }
         if self.water.seabed_depth_m is None:
             del out["water"]["seabed_depth_m"]
+        # One of the two names the water: a Jerlov type (or plug-in's body), or its own IOPs.
+        del out["water"]["jerlov_type" if self.water.iops is not None else "iops"]
         return out
 
 

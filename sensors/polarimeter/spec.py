@@ -27,6 +27,7 @@ from sensors.polarimeter.unit import fisheye as fisheye_mod
 from sensors.polarimeter.unit import mosaic as mosaic_mod
 from twin.core.arrays import FloatArray
 from twin.core.extensions import WATER_BODIES
+from twin.core.options import INLINE_WATER
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +37,9 @@ class OpticsConfig:
     Attributes:
         sky: Sky radiance and polarization model.
         jerlov_type: The water body: a Jerlov type (``water.JERLOV_TYPES``) or a plug-in's
-            (``twin.core.extensions.WATER_BODIES``).
+            (``twin.core.extensions.WATER_BODIES``); ``"inline"`` with ``water_body``.
+        water_body: The water's own IOPs (a scenario's ``[water.iops]``), with ``jerlov_type``
+            ``"inline"``; None for a named water body.
         turbidity: Multiplier on the type's particle scattering (1 = the type itself).
         particle_dop_max: The particles' peak linear polarization P (scattering.py, sourced).
         depolarization_ratio: The water molecules' depolarization ratio δ (scattering.py).
@@ -72,9 +75,16 @@ class OpticsConfig:
     bubbles: str = "ideal"
     flicker: str = "ideal"
     particles: str = "ideal"
+    water_body: water_mod.WaterBody | None = None
 
     def __post_init__(self) -> None:
-        if self.jerlov_type not in WATER_BODIES.names():
+        if (self.jerlov_type == INLINE_WATER) != (self.water_body is not None):
+            raise ValueError(
+                f"OpticsConfig.water_body: {self.water_body!r} with jerlov_type "
+                f"{self.jerlov_type!r}; allowed: a WaterBody exactly when jerlov_type is "
+                f"{INLINE_WATER!r}"
+            )
+        if self.water_body is None and self.jerlov_type not in WATER_BODIES.names():
             raise ValueError(
                 f"OpticsConfig.jerlov_type: {self.jerlov_type!r}; allowed: {WATER_BODIES.names()}"
             )
@@ -104,7 +114,7 @@ class OpticsConfig:
         """The water's optical properties (type, turbidity, P and δ)."""
         try:
             return water_mod.jerlov_water(
-                self.jerlov_type,
+                self.water_body if self.water_body is not None else self.jerlov_type,
                 self.turbidity,
                 particle_dop_max=self.particle_dop_max,
                 depolarization_ratio=self.depolarization_ratio,

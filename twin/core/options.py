@@ -19,6 +19,9 @@ LENS_MODELS: tuple[str, ...] = ("fresnel", "ideal")
 #: Jerlov (1976)'s water types: open ocean I..III, coastal 1C..9C (increasingly turbid); the keys
 #: of sensors.polarimeter.optics.water.JERLOV_500NM, in this order (tests/scenarios/test_schema.py).
 JERLOV_TYPES: tuple[str, ...] = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
+#: The water body's name when a scenario gives its own absorption, scattering and K_d
+#: (``[water.iops]``) instead of naming one; reserved: no registered water body may take it.
+INLINE_WATER = "inline"
 
 #: Depolarization ratio of sea water at S = 35: 0.039 + a₁S with a₁ = 1.5e-4 (Hu, Zhang et al.
 #: 2019, Appl. Opt. 58(4):991, read; sensors.polarimeter.optics.scattering's docstring).

@@ -15,6 +15,7 @@ import numpy as np
 import sensors
 from scenarios.schema import Hardware, Scenario
 from sensors.polarimeter.optics.sky import SkySpec
+from sensors.polarimeter.optics.water import WaterBody
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.unit.hardware import (
     CalibrationUncertainty,
@@ -96,6 +97,9 @@ def optics_config(scenario: Scenario) -> OpticsConfig:
     return OpticsConfig(
         sky=sky,
         jerlov_type=w.jerlov_type,
+        water_body=None
+        if w.iops is None
+        else WaterBody(w.iops.kd_per_m, w.iops.a_per_m, w.iops.b_per_m, w.iops.source),
         turbidity=o.turbidity,
         particle_dop_max=w.particle_peak_polarization,
         depolarization_ratio=w.depolarization_ratio,

@@ -95,6 +95,7 @@ from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.stokes import meridian_reference
 from twin.core.arrays import FloatArray
 from twin.core.extensions import WATER_BODIES, ExtensionError
+from twin.core.options import INLINE_WATER
 from twin.core.options import JERLOV_TYPES as JERLOV_TYPES
 
 # --------------------------------------------------------------------------------------------
@@ -133,6 +134,12 @@ class WaterBody:
             if not ok or v > 100.0:
                 bound = "(0, 100]" if lo_open else "[0, 100]"
                 raise ValueError(f"WaterBody.{name}: {v!r}; allowed: a number in {bound} (1/m)")
+        if self.kd_per_m < self.a_per_m:
+            # K_d ≈ (a + b_b)/μ̄_d with μ̄_d ≤ 1: diffuse light cannot fade slower than absorbed.
+            raise ValueError(
+                f"WaterBody.kd_per_m: {self.kd_per_m!r} is below a_per_m = {self.a_per_m!r}; "
+                "allowed: K_d >= a (1/m)"
+            )
         if not isinstance(self.iop_source, str) or not self.iop_source.strip():
             raise ValueError(
                 f"WaterBody.iop_source: {self.iop_source!r}; allowed: a citation or an assumption"
@@ -242,6 +249,10 @@ class WaterOptics:
 
 
 def _check_water_body(name: str, obj: object) -> None:
+    if name == INLINE_WATER:
+        raise ExtensionError(
+            f"water body {name!r} is reserved for a scenario's own [water.iops]; rename it"
+        )
     if not isinstance(obj, WaterBody):
         raise ExtensionError(
             f"water body {name!r} is {type(obj).__name__}; expected a "
@@ -250,7 +261,7 @@ def _check_water_body(name: str, obj: object) -> None:
 
 
 def jerlov_water(
-    water_type: str,
+    water_type: str | WaterBody,
     turbidity: float = 1.0,
     *,
     particle_dop_max: float = scattering.PARTICLE_DOP_MAX,
@@ -264,7 +275,8 @@ def jerlov_water(
 
     Args:
         water_type: One of :data:`JERLOV_TYPES` (case-insensitive) or a plug-in's water body
-            (:data:`twin.core.extensions.WATER_BODIES`).
+            (:data:`twin.core.extensions.WATER_BODIES`), or a :class:`WaterBody` itself (a
+            scenario's ``[water.iops]``: named ``"inline"``).
         turbidity: Particulate-scattering multiplier, 0 (particle-free) to 1000.
         particle_dop_max: The particles' peak linear polarization P (:class:`WaterOptics`).
         depolarization_ratio: The water molecules' δ (:class:`WaterOptics`).
@@ -273,8 +285,10 @@ def jerlov_water(
         ValueError: an unknown type (the message lists the allowed ones) or turbidity out of range;
             ExtensionError (a ValueError) for a plug-in that does not import or is no WaterBody.
     """
-    key = str(water_type).strip()
-    if key.upper() in JERLOV_500NM:
+    key = INLINE_WATER if isinstance(water_type, WaterBody) else str(water_type).strip()
+    if isinstance(water_type, WaterBody):
+        pass
+    elif key.upper() in JERLOV_500NM:
         key = key.upper()
     elif key not in WATER_BODIES.names():
         allowed = ", ".join(WATER_BODIES.names())
@@ -282,7 +296,12 @@ def jerlov_water(
     t = float(turbidity)
     if not (math.isfinite(t) and 0.0 <= t <= 1000.0):
         raise ValueError(f"turbidity must lie in [0, 1000], got {turbidity!r}")
-    e = JERLOV_500NM[key] if key in JERLOV_500NM else WATER_BODIES.load(key, _check_water_body)
+    if isinstance(water_type, WaterBody):
+        e = water_type
+    elif key in JERLOV_500NM:
+        e = JERLOV_500NM[key]
+    else:
+        e = WATER_BODIES.load(key, _check_water_body)
     b_w = min(B_SEAWATER_500NM, e.b_per_m)
     b = b_w + t * (e.b_per_m - b_w)
     kd = e.kd_per_m * math.sqrt(
