@@ -5,7 +5,8 @@ The paper (hu2024 §4.3) reports heading errors POL/INS 3.6° vs LIG/INS 1.6° a
 pattern's apparent sun drifts towards the zenith with depth and a filter that fuses the full
 solar vector (as the paper's does) inherits it. With the sky model's own sky as the source of the
 scattered sky light, LIG's intensity pattern is biased too (the sky is brighter towards the sun
-but low); benchmarks/results/sea_trials.md has the whole trials over several seeds. These tests
+but low); the sea_trials campaign (validation/results/campaigns/sea_trials/) has the whole
+trials over several seeds and filter set-ups. These tests
 assert what the physics gives over the first minute: both vectors drag the level, POL's more at
 15 m than at 10 m, LIG's less.
 """
@@ -63,7 +64,8 @@ def test_the_sea_trials_from_the_cli_compare_pol_and_lig(tmp_path) -> None:
         m = json.loads((out / "metrics.json").read_text())
         assert m["status"] == "mission_complete"
         rmse[depth] = {k: v["heading_rmse_deg"] for k, v in m["navigation"]["variants"].items()}
-    # benchmarks/results/sea_trials.md, seed 0: 10 m INS 1.94°, POL 1.47°, LIG 0.70°; 15 m INS
+    # Measured with the scenario's seed on 2026-12-02 (validation/results/archive/sea_trials.md):
+    # 10 m INS 1.94°, POL 1.47°, LIG 0.70°; 15 m INS
     # 1.94°, POL 1.55°, LIG 0.49°.
     for d in (10, 15):
         assert rmse[d]["lig"] < 0.6 * rmse[d]["pol"] < rmse[d]["pol"] < rmse[d]["ins"]
