@@ -43,7 +43,9 @@ from scenarios.schema import (
     MOUNTING_MODELS,
     NAV_ALIGNMENTS,
     NAV_TUNINGS,
+    SENSOR_SLOTS,
     SUN_MEASUREMENTS,
+    ExtraSensor,
     Hardware,
     Navigation,
     OverrideValue,
@@ -51,7 +53,7 @@ from scenarios.schema import (
     Sensors,
     nav_variants,
 )
-from twin.core.extensions import INS_ONLY
+from twin.core.extensions import INS_ONLY, SENSORS
 
 
 def _overrides(t: _Table | None) -> tuple[tuple[str, OverrideValue], ...] | None:
@@ -118,6 +120,7 @@ def read_sensors(t: _Table | None) -> Sensors | None:
         polarimeter_overrides=_overrides(t.table("polarimeter_overrides")),
         gravimeter=t.string("gravimeter", non_empty=True, default=""),
         gravimeter_overrides=_overrides(t.table("gravimeter_overrides")),
+        extra=_extra_sensors(t.table("extra", expected="a table of sensors by name")),
     )
     t.finish()
     if sensors is not None and sensors.polarimeter == "":
@@ -125,6 +128,58 @@ def read_sensors(t: _Table | None) -> Sensors | None:
     if sensors is not None and sensors.gravimeter == "":
         sensors = dataclasses.replace(sensors, gravimeter=None)
     return sensors
+
+
+#: An extra sensor's own keys; the rest of its table is its spec's fields.
+_EXTRA_KEYS = ("kind", "preset", "site")
+
+
+def _extra_sensors(t: _Table | None) -> tuple[ExtraSensor, ...] | None:
+    """``[sensors.extra.<name>]``: more sensors, each a kind, a preset, a site and spec fields.
+
+    The kind is checked here against the registry; the preset, the site and the fields by
+    building the sensor as a run does (``validate`` = ``run``: ``twin.world.assembly``).
+    """
+    if t is None:
+        return None
+    out: list[ExtraSensor] = []
+    ok = True
+    for name, raw in t.data.items():
+        t.known.append(name)
+        path = t.at(name)
+        if not name.isidentifier():
+            t.report.add(path, "is not a sensor name (a Python identifier)")
+            ok = False
+            continue
+        if name in SENSOR_SLOTS:
+            t.report.add(
+                path, f"is a built-in sensor's name ({_choices(SENSOR_SLOTS)}); choose another"
+            )
+            ok = False
+            continue
+        if not isinstance(raw, Mapping):
+            t.report.add(
+                path,
+                MSG_WRONG_TYPE.format(
+                    value=_show(raw), type_name=_type_name(raw), expected="a table"
+                ),
+            )
+            ok = False
+            continue
+        st = _Table(t.report, path, raw)
+        kind = st.string("kind", choices=SENSORS.names())
+        preset = st.string("preset", non_empty=True, default="")
+        site = st.string("site", non_empty=True, default="")
+        fields = _overrides(
+            _Table(t.report, path, {k: v for k, v in raw.items() if k not in _EXTRA_KEYS})
+        )
+        st.known += [k for k in raw if k not in _EXTRA_KEYS]
+        st.finish()
+        if not _all_set(kind, preset, site, fields):
+            ok = False
+            continue
+        out.append(ExtraSensor(name, kind, preset or None, site or None, fields))
+    return tuple(out) if ok else None
 
 
 def read_navigation(t: _Table | None) -> Navigation | None:

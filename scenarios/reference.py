@@ -263,7 +263,8 @@ def markdown() -> str:
         "([extending.md](extending.md)).",
         "",
         "Free-form tables, not listed field by field: `sensors.*_overrides` (a preset's spec",
-        "fields), `navigation.methods.<name>` (a compass method's config fields,",
+        "fields), `sensors.extra.<name>` (an extra sensor: `kind`, optional `preset` and `site`,",
+        "its spec's fields), `navigation.methods.<name>` (a compass method's config fields,",
         "[extending.md](extending.md)).",
         "",
     ]
@@ -330,7 +331,7 @@ def json_schema() -> dict[str, Any]:
             root.setdefault("required", []).append(leaf)
     free = [root["properties"]["navigation"]["properties"].get("methods", {})]
     free += [v for k, v in root["properties"]["sensors"]["properties"].items()
-             if k.endswith("_overrides")]  # fmt: skip
+             if k.endswith("_overrides") or k == "extra"]  # fmt: skip
     for table in free:
         table.pop("additionalProperties", None)
     return root

@@ -240,6 +240,30 @@ class Initial:
 # ---- vehicle computer and recording -----------------------------------------------------------
 
 
+#: The names of the scenario's own sensors (its fields above ``extra``): an extra sensor takes
+#: another.
+SENSOR_SLOTS: tuple[str, ...] = ("imu", "depth", "polarimeter", "gravimeter")
+
+
+@dataclass(frozen=True, slots=True)
+class ExtraSensor:
+    """One more sensor on the vehicle (``[sensors.extra.<name>]``).
+
+    Attributes:
+        name: Its name in the run (readings, recording): a Python identifier, not a slot's.
+        kind: A sensor kind (``twin.core.extensions.SENSORS``: built in or installed).
+        preset: A preset of the kind's class, or None for its spec's defaults.
+        site: The MJCF site it is mounted at, or None for the class's default.
+        overrides: The spec's fields changed, ``(field, value)`` sorted by field.
+    """
+
+    name: str
+    kind: str
+    preset: str | None = None
+    site: str | None = None
+    overrides: tuple[tuple[str, OverrideValue], ...] = ()
+
+
 @dataclass(frozen=True, slots=True)
 class Sensors:
     """Sensor presets and spec-field overrides.
@@ -247,6 +271,20 @@ class Sensors:
     Overrides are ``(field, value)`` pairs sorted by field, so the dataclass stays hashable; pass
     them on as ``registry.create("imu", s.imu, **dict(s.imu_overrides))``. The preset and field
     names are checked by the consumer against ``sensors.registry``.
+
+    Attributes:
+        imu: The IMU's preset (``sensors.imu``).
+        depth: The depth gauge's preset (``sensors.depth``).
+        imu_overrides: The IMU spec's fields changed from the preset.
+        depth_overrides: The depth gauge spec's fields changed from the preset.
+        polarimeter: The skylight polarization camera's preset, or none for a trial without one.
+        polarimeter_overrides: The camera spec's fields changed from the preset.
+        gravimeter: The marine gravimeter's preset, or none (it needs a ``[gravity]`` map).
+        gravimeter_overrides: The gravimeter spec's fields changed from the preset.
+        extra: More sensors by name (``[sensors.extra.<name>]``): each a ``kind`` (a built-in
+            sensor kind or an installed package's), an optional ``preset`` and ``site`` (an MJCF
+            site of the vehicle) and its spec's fields; sampled and recorded after the built-in
+            ones, in the file's order (each with its own random stream).
     """
 
     imu: str = "lig2024"
@@ -261,6 +299,7 @@ class Sensors:
     # [gravity] map.
     gravimeter: str | None = None
     gravimeter_overrides: tuple[tuple[str, OverrideValue], ...] = ()
+    extra: tuple[ExtraSensor, ...] = ()
 
 
 # sensors.polarimeter.optics.sky.POLARIZATIONS (a heavy import for the schema: tied by a test
@@ -607,6 +646,11 @@ class Scenario:
                     if self.sensors.gravimeter is not None
                     else {}
                 ),
+                **(
+                    {"extra": {e.name: _extra_dict(e) for e in self.sensors.extra}}
+                    if self.sensors.extra
+                    else {}
+                ),
             },
             "optics": _plain(self.optics),
             "autopilot": _plain(self.autopilot),
@@ -620,6 +664,12 @@ class Scenario:
         # One of the two names the water: a Jerlov type (or plug-in's body), or its own IOPs.
         del out["water"]["jerlov_type" if self.water.iops is not None else "iops"]
         return out
+
+
+def _extra_dict(e: ExtraSensor) -> dict[str, Any]:
+    out: dict[str, Any] = {"kind": e.kind}
+    out |= {k: v for k, v in (("preset", e.preset), ("site", e.site)) if v is not None}
+    return out | {k: _plain(v) for k, v in e.overrides}
 
 
 def _navigation_dict(nav: Navigation) -> dict[str, Any]:

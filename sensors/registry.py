@@ -1,53 +1,67 @@
-"""Sensor registry: a new sensor is one module with ``@register`` on its class."""
+"""Sensor registry: a sensor kind is one class, declared once in an extension point.
+
+The kinds are :data:`twin.core.extensions.SENSORS`: the project's, and those installed packages
+declare under the ``auv_twin.sensors`` entry-point group (imported on first use, so a sensor with
+heavy dependencies costs nothing until it is used). ``@register`` on a class adds it at run time
+(a notebook's or a test's own sensor).
+"""
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from typing import Any
 
 from sensors.base import Sensor, SensorSpec
+from twin.core.extensions import SENSORS, ExtensionError
 
-_REGISTRY: dict[str, type[Sensor]] = {}
 
-# Modules that hold the built-in sensors; imported lazily so that importing the registry is cheap
-# and a sensor with heavy dependencies costs nothing until it is used.
-_BUILTIN_MODULES = (
-    "sensors.imu",
-    "sensors.depth",
-    "sensors.gravimeter",
-    "sensors.polarimeter.render",
-)
+def _check_sensor(name: str, obj: object) -> None:
+    if not (isinstance(obj, type) and issubclass(obj, Sensor)):
+        raise ExtensionError(
+            f"sensor {name!r} is {obj!r}; expected a subclass of sensors.base.Sensor"
+        )
+    if obj.kind != name:
+        raise ExtensionError(
+            f"sensor {name!r} is {obj.__name__}, whose kind is {obj.kind!r}; the entry's name "
+            "must be the class's kind"
+        )
 
 
 def register(cls: type[Sensor]) -> type[Sensor]:
-    """Class decorator: register a sensor class under its ``kind`` (once only)."""
+    """Class decorator: a sensor class under its ``kind`` (once only).
+
+    The built-in and installed kinds are declared in :data:`twin.core.extensions.SENSORS`; the
+    decorator on those is a no-op that checks the declaration names this class. Any other class
+    is added at run time.
+    """
     if not cls.kind:
         raise ValueError(f"{cls.__name__} has no 'kind'")
-    existing = _REGISTRY.get(cls.kind)
-    if existing is not None and existing is not cls:
-        raise ValueError(f"sensor kind {cls.kind!r} is already registered by {existing.__name__}")
-    _REGISTRY[cls.kind] = cls
+    target = SENSORS.builtins.get(cls.kind) or SENSORS.plugins().get(cls.kind)
+    if target is not None:
+        if target != f"{cls.__module__}:{cls.__qualname__}":
+            raise ValueError(f"sensor kind {cls.kind!r} is already registered ({target})")
+        return cls
+    if cls.kind in SENSORS.names():
+        existing = SENSORS.load(cls.kind)
+        if existing is not cls:
+            raise ValueError(
+                f"sensor kind {cls.kind!r} is already registered by {existing.__name__}"
+            )
+        return cls
+    SENSORS.add(cls.kind, cls)
     return cls
 
 
-def _load_builtins() -> None:
-    for module in _BUILTIN_MODULES:
-        importlib.import_module(module)
-
-
 def available() -> dict[str, type[Sensor]]:
-    """All registered sensor kinds."""
-    _load_builtins()
-    return dict(sorted(_REGISTRY.items()))
+    """All sensor kinds: built in, installed and registered at run time."""
+    return {k: SENSORS.load(k, _check_sensor) for k in sorted(SENSORS.names())}
 
 
 def sensor_class(kind: str) -> type[Sensor]:
     """The class registered under ``kind``; KeyError naming the known kinds otherwise."""
-    kinds = available()
-    if kind not in kinds:
-        raise KeyError(f"unknown sensor kind {kind!r}; known: {', '.join(kinds)}")
-    return kinds[kind]
+    if kind not in SENSORS.names():
+        raise KeyError(f"unknown sensor kind {kind!r}; known: {', '.join(sorted(SENSORS.names()))}")
+    return SENSORS.load(kind, _check_sensor)
 
 
 def create(

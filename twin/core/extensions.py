@@ -159,6 +159,20 @@ COMPASS_METHODS = ExtensionPoint(
     },
 )
 
+#: Sensor kinds (``sensors.registry``): a kind → its :class:`sensors.base.Sensor` class. Built in:
+#: the IMU, the depth gauge, the gravimeter and the polarization camera; a package adds its own,
+#: which a scenario mounts with ``[sensors.extra.<name>] kind = "<kind>"`` (docs/extending.md).
+SENSORS = ExtensionPoint(
+    "sensor",
+    "auv_twin.sensors",
+    {
+        "imu": "sensors.imu:Imu",
+        "depth": "sensors.depth:DepthGauge",
+        "gravimeter": "sensors.gravimeter:Gravimeter",
+        "polarimeter": "sensors.polarimeter.render:Polarimeter",
+    },
+)
+
 #: Study trials a campaign runs (``twin.campaign.trials``): a ``StudyTrial`` or a function
 #: ``run(params, seed) -> metrics``.
 STUDY_TRIALS = ExtensionPoint(

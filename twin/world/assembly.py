@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 import sensors
-from scenarios.schema import Hardware, Scenario
+from scenarios.schema import ExtraSensor, Hardware, Scenario
 from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.optics.water import WaterBody
 from sensors.polarimeter.render import OpticsConfig
@@ -70,17 +70,37 @@ def build_plant(scenario: Scenario, current: Current) -> Plant:
     return plant
 
 
-def make_sensor(kind: str, preset: str, overrides: tuple[tuple[str, Any], ...]) -> sensors.Sensor:
-    """Create a scenario's sensor; any error names the scenario field."""
+def make_sensor(
+    kind: str,
+    preset: str | None,
+    overrides: tuple[tuple[str, Any], ...],
+    *,
+    name: str | None = None,
+    site: str | None = None,
+    field: str | None = None,
+) -> sensors.Sensor:
+    """Create a scenario's sensor; any error names the scenario field (``field``, or the slot's)."""
     try:
         return sensors.create(
-            kind, preset, **{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides}
+            kind,
+            preset,
+            name=name,
+            site=site,
+            **{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides},
         )
     except KeyError as exc:  # an unknown kind or preset (KeyError quotes its message: unwrap)
-        raise ValueError(f"sensors.{kind}: {exc.args[0] if exc.args else exc}") from exc
+        where = field or f"sensors.{kind}"
+        raise ValueError(f"{where}: {exc.args[0] if exc.args else exc}") from exc
     except (ValueError, TypeError) as exc:  # an unknown or impossible override field
-        field = f"sensors.{kind}_overrides" if overrides else f"sensors.{kind}"
-        raise ValueError(f"{field}: {exc}") from exc
+        where = field or (f"sensors.{kind}_overrides" if overrides else f"sensors.{kind}")
+        raise ValueError(f"{where}: {exc}") from exc
+
+
+def extra_sensor(e: ExtraSensor) -> sensors.Sensor:
+    """One of the scenario's ``[sensors.extra.<name>]`` sensors."""
+    return make_sensor(
+        e.kind, e.preset, e.overrides, name=e.name, site=e.site, field=f"sensors.extra.{e.name}"
+    )
 
 
 def optics_config(scenario: Scenario) -> OpticsConfig:
@@ -187,6 +207,8 @@ def scenario_sensors(scenario: Scenario) -> list[sensors.Sensor]:
         out.append(polarimeter_sensor(scenario))
     if s.gravimeter is not None:
         out.append(gravimeter_sensor(scenario))
+    # After the built-in ones, in the file's order: adding one leaves the others' streams alone.
+    out += [extra_sensor(e) for e in s.extra]
     return out
 
 
@@ -233,13 +255,43 @@ def check_sensors(scenario: Scenario) -> list[str]:
             built[kind] = build()
         except ValueError as exc:
             problems.append(str(exc))
+    extras: dict[str, sensors.Sensor] = {}
+    for e in s.extra:
+        try:
+            extras[e.name] = extra_sensor(e)
+        except ValueError as exc:
+            problems.append(str(exc))
+    if extras:
+        # An extra sensor is started on the vehicle as a run starts it (its site, and whatever
+        # MJCF sensor its kind reads there), so that validate refuses what run would.
+        plant = build_plant(scenario, Current("none"))
+        sites = {plant.model.site(i).name for i in range(plant.model.nsite)}
+        rng = np.random.default_rng(0)
+        for e in s.extra:
+            sensor = extras.get(e.name)
+            if sensor is None:
+                continue
+            if sensor.site not in sites:
+                problems.append(
+                    f"sensors.extra.{e.name}: {'site' if e.site else 'default site'} "
+                    f"{sensor.site!r} is not on the vehicle; allowed: {sorted(sites)}"
+                )
+                continue
+            try:
+                sensor.reset(plant, rng)
+                sensor.sample(plant, rng)
+            except (KeyError, ValueError) as exc:
+                msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+                problems.append(f"sensors.extra.{e.name}: {msg}")
     # The suite samples on the physics clock: a sensor faster than the physics would silently
     # sample at the physics rate while its noise model assumed its own (a wrong number).
     physics_hz = 1.0 / PlantConfig().timestep_s
-    for kind, sensor in built.items():
-        field = (
-            f"sensors.{kind}_overrides" if getattr(s, f"{kind}_overrides") else f"sensors.{kind}"
-        )
+    fields = {
+        kind: f"sensors.{kind}_overrides" if getattr(s, f"{kind}_overrides") else f"sensors.{kind}"
+        for kind in built
+    } | {name: f"sensors.extra.{name}" for name in extras}
+    for kind, sensor in (built | extras).items():
+        field = fields[kind]
         if sensor.rate_hz > physics_hz + 1e-9:
             problems.append(
                 f"{field}: rate_hz = {sensor.rate_hz:g} is above the physics rate; allowed "

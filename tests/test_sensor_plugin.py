@@ -1,0 +1,135 @@
+"""A sensor from another package (``examples/sensor_plugin``, a USBL), mounted by a scenario.
+
+The package's only link to the project is its entry point (``auv_twin.sensors``); the README's
+test command installs it. A scenario mounts it with ``[sensors.extra.<name>] kind = "usbl"``
+and sets its spec's fields; ``validate`` builds and starts it as a run does; a run samples it on
+its own random stream (appended after the built-in sensors', which do not move), records it and
+writes its readings' time series.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from rrd_helpers import entities
+
+import scenarios
+import sensors
+from scenarios import ScenarioError, parse_scenario
+from sensors.registry import sensor_class
+from twin.app.cli import main
+from twin.app.run import run_scenario
+from twin.core.extensions import SENSORS, ExtensionError
+
+ROOT = Path(__file__).resolve().parents[1]
+TRIAL = ROOT / "examples" / "sensor_plugin" / "usbl_trial.toml"
+
+
+def test_the_example_sensor_is_found_through_its_entry_point() -> None:
+    eps = {ep.name: ep for ep in metadata.entry_points(group=SENSORS.group)}
+    assert eps["usbl"].value == "usbl_sensor.sensor:Usbl"
+    assert eps["usbl"].dist is not None and eps["usbl"].dist.name == "auv-twin-usbl-sensor"
+    assert set(SENSORS.builtins) == {"imu", "depth", "gravimeter", "polarimeter"}
+    kinds = sensors.available()
+    assert "usbl" in kinds and kinds["usbl"].kind == "usbl"
+    for kind, cls in kinds.items():  # one declaration: the entry's name is the class's kind
+        assert cls.kind == kind
+    usbl = sensors.create("usbl", "generic", name="fix", range_fraction=0.05)
+    assert usbl.name == "fix" and usbl.site == "imu" and usbl.spec.range_fraction == 0.05
+    with pytest.raises(ValueError, match=r"range_fraction = 0.5: must lie in \[0, 0.2\]"):
+        sensors.create("usbl", "generic", range_fraction=0.5)
+
+
+def test_a_sensor_entry_must_be_a_sensor_of_its_own_kind() -> None:
+    class NotASensor:
+        kind = "thing"
+
+    SENSORS.add("thing", NotASensor)
+    SENSORS.add("imu_copy", sensor_class("imu"))
+    try:
+        with pytest.raises(ExtensionError, match=r"expected a subclass of sensors\.base\.Sensor"):
+            sensor_class("thing")
+        with pytest.raises(ExtensionError, match="whose kind is 'imu'; the entry's name must be"):
+            sensor_class("imu_copy")
+    finally:
+        SENSORS.remove("thing")
+        SENSORS.remove("imu_copy")
+    with pytest.raises(KeyError, match="unknown sensor kind 'sonar'; known: depth, gravimeter"):
+        sensor_class("sonar")
+
+
+def test_the_example_trial_validates_and_bad_extras_are_one_line_errors(tmp_path: Path, capsys):
+    assert main(["validate", str(TRIAL)]) == 0
+    s = scenarios.load(TRIAL)
+    (e,) = s.sensors.extra
+    assert (e.name, e.kind, e.preset, e.site, e.overrides) == (
+        "usbl", "usbl", "generic", None, (("range_fraction", 0.02),))  # fmt: skip
+    assert parse_scenario(s.to_dict()) == s
+    doc = s.to_dict()
+    doc["sensors"]["extra"] = {
+        "imu": {"kind": "usbl"},  # a slot's name
+        "fix": {"kind": "sonar"},  # no such kind
+        "fix2": {"kind": "usbl", "preset": "deluxe"},  # no such preset
+        "fix3": {"kind": "usbl", "site": "mast"},  # no such site
+        "fix4": {"kind": "usbl", "range_fraction": 0.9},  # an impossible field
+        "fix5": {"kind": "depth", "site": "imu"},  # a site without what the kind reads there
+    }
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(doc, "bad")
+    lines = str(err.value).splitlines()[1:]
+    assert len(lines) == 2  # the schema's problems first; the build's when these are fixed
+    assert any(x.startswith("  sensors.extra.imu: is a built-in sensor's name") for x in lines)
+    assert any(x.startswith('  sensors.extra.fix.kind: "sonar" is not one of') and '"usbl"' in x
+               for x in lines)  # fmt: skip
+    del doc["sensors"]["extra"]["imu"], doc["sensors"]["extra"]["fix"]
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(doc, "bad")
+    msg = str(err.value)
+    assert "sensors.extra.fix2: unknown usbl preset 'deluxe'; known: generic, ideal" in msg
+    assert "sensors.extra.fix3: site 'mast' is not on the vehicle; allowed: ['depth'" in msg
+    assert "sensors.extra.fix4: range_fraction = 0.9: must lie in [0, 0.2]" in msg
+    assert "sensors.extra.fix5: depth gauge 'fix5' at site 'imu' needs the MJCF sensor" in msg
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TRIAL.read_text().replace("range_fraction = 0.02", "range_fraction = 0.9"))
+    capsys.readouterr()
+    assert main(["validate", str(bad)]) == 2
+    out = capsys.readouterr().err
+    assert "sensors.extra.usbl: range_fraction = 0.9" in out and "Traceback" not in out
+
+
+def test_a_run_samples_records_and_writes_the_plugin_sensor(tmp_path: Path) -> None:
+    s = dataclasses.replace(scenarios.load(TRIAL), duration_s=20.0)
+    m = run_scenario(s, tmp_path / "run", seed=4, timeseries=True)
+    assert m["sensor_readings"]["usbl"] == 20  # 1 Hz, delivered 0.5 s after each ping
+    assert [x["name"] for x in m["sensors"]][-1] == "usbl"
+    fixes = pd.read_parquet(tmp_path / "run" / "timeseries" / "readings_usbl.parquet")
+    truth = pd.read_parquet(tmp_path / "run" / "timeseries" / "truth.parquet")
+    assert len(fixes) == 20 and (fixes["t_delivered"] - fixes["t"]).round(9).eq(0.5).all()
+    # Each fix is the vehicle's position within a few of its σ (0.1 m + 2 % of ~10 m of range).
+    at = truth.set_index("t").reindex(fixes["t"], method="nearest")
+    depth_err = fixes["position_m[2]"].to_numpy() - (-at["depth_m"].to_numpy())
+    assert np.all(np.abs(depth_err) < 5 * (0.1 + 0.02 * fixes["slant_range_m"].to_numpy()) + 0.3)
+    assert fixes["slant_range_m"].between(9.0, 60.0).all()
+    rows = entities(tmp_path / "run" / "recording.rrd")
+    assert rows.get("/sensors/usbl/position_m", 0) > 0
+
+
+def test_an_extra_sensor_leaves_the_built_in_streams_alone(tmp_path: Path) -> None:
+    # Appended after the built-in sensors, it takes a new random stream: the IMU's and the depth
+    # gauge's noise, hence the filters, are bit for bit those of the run without it.
+    base = dataclasses.replace(scenarios.load(TRIAL), duration_s=6.0)
+    doc = copy.deepcopy(base.to_dict())
+    del doc["sensors"]["extra"]
+    alone = parse_scenario(doc, "alone")
+    nav = {}
+    for name, sc in (("with", base), ("without", alone)):
+        m = run_scenario(sc, tmp_path / name, seed=9, record=False)
+        nav[name] = json.dumps(m["navigation"]["variants"], sort_keys=True)
+    assert nav["with"] == nav["without"]
