@@ -14,39 +14,13 @@ from datetime import UTC, datetime
 from typing import Any
 
 from scenarios.ranges import (
-    ATTENUATION_PER_M,
     BEAUFORT_FORCE,
     BEAUFORT_MPS,
-    BERRY_DELTA_DEG,
-    CIE_SKY_TYPE,
-    COMPASS_DEG,
-    CURRENT_SPEED_MPS,
-    DENSITY_KG_M3,
-    DEPOLARIZATION_RATIO,
-    GUST_SIGMA_MPS,
-    LATITUDE_DEG,
-    LONGITUDE_DEG,
-    MAP_CORRELATION_KM,
-    MAP_ERROR_MGAL,
-    MAP_POSITION_KM,
-    MAP_RANGE_MGAL,
-    MAP_SIZE_KM,
-    MAP_SPACING_M,
     MSG_NAIVE_TIME,
     MSG_PROFILE_ORDER,
     MSG_START_RANGE,
-    NON_NEGATIVE,
-    POSITIVE,
-    SALINITY_PSU,
-    SCATTERING_PER_M,
     START_UTC_END,
     START_UTC_MIN,
-    TEMPERATURE_C,
-    TURBIDITY,
-    UNIT_INTERVAL,
-    WAVELENGTH_NM,
-    WIND_SPEED_MPS,
-    ZENITH_RADIANCE,
 )
 from scenarios.reading import (
     _MISSING,
@@ -58,12 +32,6 @@ from scenarios.reading import (
     _type_name,
 )
 from scenarios.schema import (
-    BUBBLE_MODELS,
-    CURRENT_KINDS,
-    FLICKER_MODELS,
-    GRAVITY_MAPS,
-    PARTICLE_MODELS,
-    SKY_POLARIZATION_MODELS,
     Current,
     Gravity,
     Optics,
@@ -72,8 +40,7 @@ from scenarios.schema import (
     Water,
     WaterIops,
 )
-from twin.core.extensions import WATER_BODIES
-from twin.core.options import INLINE_WATER, PARTICLE_DOP_MAX, WATER_DEPOLARIZATION_RATIO
+from twin.core.options import INLINE_WATER
 
 
 def read_start_utc(top: _Table) -> datetime | None:
@@ -111,10 +78,9 @@ def read_start_utc(top: _Table) -> datetime | None:
 def read_place(t: _Table | None) -> Place | None:
     if t is None:
         return None
+    t.of(Place)
     place = _build(
-        Place,
-        latitude_deg=t.number("latitude_deg", LATITUDE_DEG),
-        longitude_deg=t.number("longitude_deg", LONGITUDE_DEG),
+        Place, latitude_deg=t.number("latitude_deg"), longitude_deg=t.number("longitude_deg")
     )
     t.finish()
     return place
@@ -123,10 +89,11 @@ def read_place(t: _Table | None) -> Place | None:
 def read_water(t: _Table | None) -> Water | None:
     if t is None:
         return None
-    density = t.number("density_kg_m3", DENSITY_KG_M3, default=1025.0)
-    temperature = t.number("temperature_c", TEMPERATURE_C, default=15.0)
-    salinity = t.number("salinity_psu", SALINITY_PSU, default=35.0)
-    jerlov = t.string("jerlov_type", choices=WATER_BODIES.names(), default="II")
+    t.of(Water)
+    density = t.number("density_kg_m3")
+    temperature = t.number("temperature_c")
+    salinity = t.number("salinity_psu")
+    jerlov = t.string("jerlov_type")
     iops_t = t.table("iops", expected="a table: a_per_m, b_per_m, kd_per_m, source")
     iops, iops_ok = read_water_iops(iops_t)
     if iops_ok and iops is not None:
@@ -140,11 +107,9 @@ def read_water(t: _Table | None) -> Water | None:
         else:
             jerlov = INLINE_WATER
     seabed_given = "seabed_depth_m" in t.data
-    seabed = t.number("seabed_depth_m", POSITIVE, default=None)
-    peak_p = t.number("particle_peak_polarization", UNIT_INTERVAL, default=PARTICLE_DOP_MAX)
-    delta = t.number(
-        "depolarization_ratio", DEPOLARIZATION_RATIO, default=WATER_DEPOLARIZATION_RATIO
-    )
+    seabed = t.number("seabed_depth_m")
+    peak_p = t.number("particle_peak_polarization")
+    delta = t.number("depolarization_ratio")
     t.report.seabed_m = seabed
     t.finish()
     values = (density, temperature, salinity, jerlov, peak_p, delta)
@@ -159,9 +124,10 @@ def read_water_iops(t: _Table | None) -> tuple[WaterIops | None, bool]:
         return None, False
     if not t.data:
         return None, True
-    a = t.number("a_per_m", ATTENUATION_PER_M)
-    b = t.number("b_per_m", SCATTERING_PER_M)
-    kd = t.number("kd_per_m", ATTENUATION_PER_M)
+    t.of(WaterIops)
+    a = t.number("a_per_m")
+    b = t.number("b_per_m")
+    kd = t.number("kd_per_m")
     source = t.string("source", non_empty=True, expected="a citation, or 'assumption: ...'")
     t.finish()
     if a is not None and kd is not None and kd < a:
@@ -183,7 +149,8 @@ _CURRENT_KEYS = {
 def read_current(t: _Table | None) -> Current | None:
     if t is None:
         return None
-    kind = t.string("kind", choices=CURRENT_KINDS, default="none")
+    t.of(Current)
+    kind = t.string("kind")
     if kind is None:
         return None  # the other keys depend on the kind: checking them would only add noise
     elsewhere = {k for keys in _CURRENT_KEYS.values() for k in keys}
@@ -192,17 +159,17 @@ def read_current(t: _Table | None) -> Current | None:
         current = _build(
             Current,
             kind=kind,
-            speed_mps=t.number("speed_mps", CURRENT_SPEED_MPS),
-            toward_deg=t.number("toward_deg", COMPASS_DEG),
+            speed_mps=t.number("speed_mps", default=_MISSING),  # required by this kind
+            toward_deg=t.number("toward_deg", default=_MISSING),
         )
     elif kind == "gauss_markov":
         current = _build(
             Current,
             kind=kind,
-            speed_mps=t.number("speed_mps", CURRENT_SPEED_MPS, default=0.0),
-            toward_deg=t.number("toward_deg", COMPASS_DEG, default=0.0),
-            sigma_mps=t.number("sigma_mps", GUST_SIGMA_MPS),
-            tau_s=t.number("tau_s", POSITIVE),
+            speed_mps=t.number("speed_mps"),
+            toward_deg=t.number("toward_deg"),
+            sigma_mps=t.number("sigma_mps", default=_MISSING),  # required by this kind
+            tau_s=t.number("tau_s", default=_MISSING),
         )
     elif kind == "profile":
         current = _build(Current, kind=kind, profile=_profile(t))
@@ -224,7 +191,8 @@ def _profile(t: _Table) -> tuple[ProfilePoint, ...] | None:
         if p is None:
             points.append(None)
             continue
-        depth = p.number("depth_m", NON_NEGATIVE)
+        p.of(ProfilePoint)
+        depth = p.number("depth_m")
         if depth is not None and prev is not None and depth <= prev:
             t.report.add(p.at("depth_m"), MSG_PROFILE_ORDER.format(value=depth, prev=prev))
             depth = None
@@ -233,8 +201,8 @@ def _profile(t: _Table) -> tuple[ProfilePoint, ...] | None:
             _build(
                 ProfilePoint,
                 depth_m=depth,
-                speed_mps=p.number("speed_mps", CURRENT_SPEED_MPS),
-                toward_deg=p.number("toward_deg", COMPASS_DEG),
+                speed_mps=p.number("speed_mps"),
+                toward_deg=p.number("toward_deg"),
             )
         )
         p.finish()
@@ -247,21 +215,22 @@ _NO_LAUNCH: Any = object()  # launch_km absent: the map's centre
 def read_gravity(t: _Table | None) -> Gravity | None:
     if t is None:
         return None
+    t.of(Gravity)
     gravity = _build(
         Gravity,
-        map=t.string("map", choices=GRAVITY_MAPS, default="none"),
-        file=t.string("file", default=""),
-        variable=t.string("variable", default=""),
-        size_km=t.pair("size_km", MAP_SIZE_KM, default=(40.0, 40.0)),
-        spacing_m=t.number("spacing_m", MAP_SPACING_M, default=500.0),
-        map_seed=t.integer("map_seed", NON_NEGATIVE, default=0),
-        correlation_km=t.number("correlation_km", MAP_CORRELATION_KM, default=5.0),
-        range_mgal=t.number("range_mgal", MAP_RANGE_MGAL, default=78.0),
-        stored_spacing_m=t.number("stored_spacing_m", MAP_SPACING_M, default=1000.0),
-        map_error_mgal=t.number("map_error_mgal", MAP_ERROR_MGAL, default=1.7),
-        matching=t.boolean("matching", default=True),
+        map=t.string("map"),
+        file=t.string("file"),
+        variable=t.string("variable"),
+        size_km=t.pair("size_km"),
+        spacing_m=t.number("spacing_m"),
+        map_seed=t.integer("map_seed"),
+        correlation_km=t.number("correlation_km"),
+        range_mgal=t.number("range_mgal"),
+        stored_spacing_m=t.number("stored_spacing_m"),
+        map_error_mgal=t.number("map_error_mgal"),
+        matching=t.boolean("matching"),
     )
-    launch = t.pair("launch_km", MAP_POSITION_KM, default=_NO_LAUNCH)
+    launch = t.pair("launch_km", default=_NO_LAUNCH)
     t.finish()
     if gravity is None or launch is None:
         return None
@@ -277,24 +246,21 @@ def read_gravity(t: _Table | None) -> Gravity | None:
 def read_optics(t: _Table | None) -> Optics | None:
     if t is None:
         return None
+    t.of(Optics)
     optics = _build(
         Optics,
-        cie_sky_type=t.integer("cie_sky_type", CIE_SKY_TYPE, default=12),
-        sky_polarization=t.string(
-            "sky_polarization", choices=SKY_POLARIZATION_MODELS, default="rayleigh"
-        ),
-        dop_max=t.number("dop_max", UNIT_INTERVAL, default=0.75),
-        berry_delta_deg=t.number("berry_delta_deg", BERRY_DELTA_DEG, default=30.0),
-        zenith_radiance_w_m2_sr_nm=t.number(
-            "zenith_radiance_w_m2_sr_nm", ZENITH_RADIANCE, default=0.05
-        ),
-        turbidity=t.number("turbidity", TURBIDITY, default=1.0),
+        cie_sky_type=t.integer("cie_sky_type"),
+        sky_polarization=t.string("sky_polarization"),
+        dop_max=t.number("dop_max"),
+        berry_delta_deg=t.number("berry_delta_deg"),
+        zenith_radiance_w_m2_sr_nm=t.number("zenith_radiance_w_m2_sr_nm"),
+        turbidity=t.number("turbidity"),
         wind_speed_mps=_wind(t),
-        wind_toward_deg=t.number("wind_toward_deg", COMPASS_DEG, default=0.0),
-        wavelength_nm=t.number("wavelength_nm", WAVELENGTH_NM, default=500.0),
-        bubbles=t.string("bubbles", choices=BUBBLE_MODELS, default="hall_novarini"),
-        flicker=t.string("flicker", choices=FLICKER_MODELS, default="caustics"),
-        particles=t.string("particles", choices=PARTICLE_MODELS, default="marine_snow"),
+        wind_toward_deg=t.number("wind_toward_deg"),
+        wavelength_nm=t.number("wavelength_nm"),
+        bubbles=t.string("bubbles"),
+        flicker=t.string("flicker"),
+        particles=t.string("particles"),
     )
     t.finish()
     return optics
@@ -313,4 +279,4 @@ def _wind(t: _Table) -> float | None:
     if "wind_beaufort" in t.data:
         force = t.integer("wind_beaufort", BEAUFORT_FORCE)
         return None if force is None else BEAUFORT_MPS[int(force)]
-    return t.number("wind_speed_mps", WIND_SPEED_MPS, default=0.0)
+    return t.number("wind_speed_mps")

@@ -15,13 +15,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from scenarios.ranges import (
-    CAMERA_HEIGHT,
-    CAMERA_RATE_HZ,
-    CAMERA_WIDTH,
-    GATE_PROBABILITY,
-    HARDWARE_RANGES,
     HARDWARE_SWITCHES,
-    RATE_HZ,
 )
 from scenarios.reading import (
     MSG_NOT_A_CHOICE,
@@ -41,10 +35,7 @@ from scenarios.schema import (
     HARDWARE_SIGMAS,
     LENS_MODELS,
     MOUNTING_MODELS,
-    NAV_ALIGNMENTS,
-    NAV_TUNINGS,
     SENSOR_SLOTS,
-    SUN_MEASUREMENTS,
     ExtraSensor,
     Hardware,
     Navigation,
@@ -53,7 +44,7 @@ from scenarios.schema import (
     Sensors,
     nav_variants,
 )
-from twin.core.extensions import INS_ONLY, SENSORS
+from twin.core.extensions import INS_ONLY
 
 
 def _overrides(t: _Table | None) -> tuple[tuple[str, OverrideValue], ...] | None:
@@ -109,10 +100,11 @@ def _override_number(
 def read_sensors(t: _Table | None) -> Sensors | None:
     if t is None:
         return None
+    t.of(Sensors)
     sensors = _build(
         Sensors,
-        imu=t.string("imu", non_empty=True, default="lig2024"),
-        depth=t.string("depth", non_empty=True, default="ms5837_30ba"),
+        imu=t.string("imu", non_empty=True),
+        depth=t.string("depth", non_empty=True),
         imu_overrides=_overrides(t.table("imu_overrides")),
         depth_overrides=_overrides(t.table("depth_overrides")),
         # "" stands for "no polarimeter" here: _build treats None as a failed check.
@@ -166,8 +158,8 @@ def _extra_sensors(t: _Table | None) -> tuple[ExtraSensor, ...] | None:
             )
             ok = False
             continue
-        st = _Table(t.report, path, raw)
-        kind = st.string("kind", choices=SENSORS.names())
+        st = _Table(t.report, path, raw, ExtraSensor)
+        kind = st.string("kind")
         preset = st.string("preset", non_empty=True, default="")
         site = st.string("site", non_empty=True, default="")
         fields = _overrides(
@@ -185,6 +177,7 @@ def _extra_sensors(t: _Table | None) -> tuple[ExtraSensor, ...] | None:
 def read_navigation(t: _Table | None) -> Navigation | None:
     if t is None:
         return None
+    t.of(Navigation)
     choices = nav_variants()
     raw = t._raw("variants", [], "a list of variant names")
     variants: tuple[str, ...] | None = ()
@@ -225,14 +218,14 @@ def read_navigation(t: _Table | None) -> Navigation | None:
         Navigation,
         variants=variants,
         steer_on=steer_on,
-        compass_rate_hz=t.number("compass_rate_hz", CAMERA_RATE_HZ, default=1.0),
-        gravity_aiding=t.boolean("gravity_aiding", default=True),
-        depth_aiding=t.boolean("depth_aiding", default=True),
-        initial_error=t.boolean("initial_error", default=True),
-        gate_probability=t.number("gate_probability", GATE_PROBABILITY, default=0.999),
-        sun_measurement=t.string("sun_measurement", choices=SUN_MEASUREMENTS, default="azimuth"),
-        tuning=t.string("tuning", choices=NAV_TUNINGS, default="imu"),
-        alignment=t.string("alignment", choices=NAV_ALIGNMENTS, default="paper"),
+        compass_rate_hz=t.number("compass_rate_hz"),
+        gravity_aiding=t.boolean("gravity_aiding"),
+        depth_aiding=t.boolean("depth_aiding"),
+        initial_error=t.boolean("initial_error"),
+        gate_probability=t.number("gate_probability"),
+        sun_measurement=t.string("sun_measurement"),
+        tuning=t.string("tuning"),
+        alignment=t.string("alignment"),
         methods=_method_params(t.table("methods"), variants),
     )
     t.finish()
@@ -284,14 +277,15 @@ def _method_params(
 def read_recording(t: _Table | None) -> Recording | None:
     if t is None:
         return None
+    t.of(Recording)
     recording = _build(
         Recording,
-        truth_rate_hz=t.number("truth_rate_hz", RATE_HZ, default=10.0),
-        camera=t.boolean("camera", default=True),
-        camera_rate_hz=t.number("camera_rate_hz", CAMERA_RATE_HZ, default=1.0),
-        camera_width=t.integer("camera_width", CAMERA_WIDTH, default=320),
-        camera_height=t.integer("camera_height", CAMERA_HEIGHT, default=240),
-        polarimeter_log_rate_hz=t.number("polarimeter_log_rate_hz", CAMERA_RATE_HZ, default=1.0),
+        truth_rate_hz=t.number("truth_rate_hz"),
+        camera=t.boolean("camera"),
+        camera_rate_hz=t.number("camera_rate_hz"),
+        camera_width=t.integer("camera_width"),
+        camera_height=t.integer("camera_height"),
+        polarimeter_log_rate_hz=t.number("polarimeter_log_rate_hz"),
     )
     t.finish()
     return recording
@@ -300,7 +294,7 @@ def read_recording(t: _Table | None) -> Recording | None:
 def read_hardware(t: _Table | None) -> Hardware | None:
     if t is None:
         return None
-    defaults = Hardware()
+    t.of(Hardware)
     values: dict[str, Any] = {}
     choices = {
         "calibration": CALIBRATION_MODELS,
@@ -308,7 +302,7 @@ def read_hardware(t: _Table | None) -> Hardware | None:
         "lens": LENS_MODELS,
     }
     for model, sigmas in HARDWARE_SIGMAS.items():
-        kind = t.string(model, choices=choices[model], default=getattr(defaults, model))
+        kind = t.string(model)
         values[model] = kind
         for key in sigmas:
             if kind == "ideal" and key in t.data:
@@ -321,9 +315,9 @@ def read_hardware(t: _Table | None) -> Hardware | None:
                 values[key] = None
                 continue
             if key in HARDWARE_SWITCHES:
-                values[key] = t.boolean(key, default=True)
+                values[key] = t.boolean(key)
             else:
-                values[key] = t.number(key, HARDWARE_RANGES[key], default=getattr(defaults, key))
+                values[key] = t.number(key)
     hardware = _build(Hardware, **values)
     t.finish()
     if hardware is not None:

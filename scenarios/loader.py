@@ -36,12 +36,10 @@ from scenarios.environment import (
 from scenarios.equipment import read_hardware, read_navigation, read_recording, read_sensors
 from scenarios.mission import read_autopilot, read_initial, read_mission
 from scenarios.ranges import (
-    DURATION_S,
     MSG_BELOW_SEABED,
     MSG_TANK_DEPTH,
     MSG_TANK_OUTSIDE,
     MSG_TANK_SEABED,
-    SEED,
     START_UTC_END,
     TANK_DEPTH_M,
     TANK_EAST_M,
@@ -58,7 +56,6 @@ from scenarios.reading import (
 )
 from scenarios.schema import (
     MISSION_KINDS,
-    SCENES,
     TANK_FLOOR_DEPTH_M,
     TANK_LENGTH_M,
     TANK_WIDTH_M,
@@ -194,16 +191,16 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     report = _Report()
     if not isinstance(data, Mapping):
         raise ScenarioError([f"the scenario is {_type_name(data)}; expected a table"], source)
-    top = _Table(report, "", data)
+    top = _Table(report, "", data, Scenario)
     name = top.string("name", expected="a string of lowercase letters, digits and '_'")
     if name is not None and not _NAME.fullmatch(name):
         report.add("name", MSG_BAD_NAME.format(value=_show(name)))
         name = None
-    description = top.string("description", default="")
-    seed = top.integer("seed", SEED, default=0)
-    duration = top.number("duration_s", DURATION_S)
+    description = top.string("description")
+    seed = top.integer("seed")
+    duration = top.number("duration_s")
     start = read_start_utc(top)
-    scene = top.string("scene", choices=SCENES, default="open_sea")
+    scene = top.string("scene")
     place = read_place(
         top.table(
             "place", required=True, expected="a [place] table with latitude_deg, longitude_deg"

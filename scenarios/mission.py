@@ -18,11 +18,7 @@ from scenarios.ranges import (
     MSG_LEG_BOTH,
     MSG_LEG_NEITHER,
     NON_NEGATIVE,
-    PITCH_DEG,
     POSITIVE,
-    RATE_HZ,
-    ROLL_DEG,
-    VEHICLE_SPEED_MPS,
 )
 from scenarios.reading import (
     _all_set,
@@ -31,9 +27,7 @@ from scenarios.reading import (
     _Table,
 )
 from scenarios.schema import (
-    ATTITUDE_SOURCES,
     MISSION_KINDS,
-    SPEED_CONTROLS,
     Autopilot,
     HeadingLeg,
     Initial,
@@ -50,18 +44,19 @@ from scenarios.schema import (
 def read_initial(t: _Table | None) -> Initial | None:
     if t is None:
         return None
-    position = t.vec2("position_m", default=(0.0, 0.0))
-    depth = t.number("depth_m", NON_NEGATIVE, default=0.0)
+    t.of(Initial)
+    position = t.vec2("position_m")
+    depth = t.number("depth_m")
     t.report.depth(t.at("depth_m"), depth)
     t.report.point(t.at("position_m"), "the start position", position)
     initial = _build(
         Initial,
         position_m=position,
         depth_m=depth,
-        heading_deg=t.number("heading_deg", COMPASS_DEG, default=0.0),
-        roll_deg=t.number("roll_deg", ROLL_DEG, default=0.0),
-        pitch_deg=t.number("pitch_deg", PITCH_DEG, default=0.0),
-        speed_mps=t.number("speed_mps", VEHICLE_SPEED_MPS, default=0.0),
+        heading_deg=t.number("heading_deg"),
+        roll_deg=t.number("roll_deg"),
+        pitch_deg=t.number("pitch_deg"),
+        speed_mps=t.number("speed_mps"),
     )
     t.finish()
     return initial
@@ -207,11 +202,12 @@ def read_mission(t: _Table | None) -> Mission | None:
 def read_autopilot(t: _Table | None) -> Autopilot | None:
     if t is None:
         return None
+    t.of(Autopilot)
     autopilot = _build(
         Autopilot,
-        rate_hz=t.number("rate_hz", RATE_HZ, default=10.0),
-        attitude_source=t.string("attitude_source", choices=ATTITUDE_SOURCES, default="truth"),
-        speed_control=t.string("speed_control", choices=SPEED_CONTROLS, default="feedback"),
+        rate_hz=t.number("rate_hz"),
+        attitude_source=t.string("attitude_source"),
+        speed_control=t.string("speed_control"),
     )
     t.finish()
     return autopilot

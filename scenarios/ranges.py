@@ -8,8 +8,16 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 
-from scenarios.reading import Range
-from scenarios.schema import TANK_LENGTH_M, TANK_MAX_DEPTH_M, TANK_WIDTH_M
+from scenarios.fields import Range
+
+# The tank scene (models/auv/scene_tank.xml): 12 m (East) x 6 m (North) x 4 m deep, centred on the
+# world origin, water surface at z = 0.
+TANK_LENGTH_M = 12.0
+TANK_WIDTH_M = 6.0
+TANK_FLOOR_DEPTH_M = 4.0
+# Deepest depth a scenario may command in the tank: the floor is at 4 m and the hull (about 0.19 m
+# in diameter) pitches while it holds depth, so keep half a metre of water under the keel.
+TANK_MAX_DEPTH_M = 3.5
 
 # ---- error text --------------------------------------------------------------------------------
 
@@ -104,17 +112,6 @@ BEAUFORT_MPS: tuple[float, ...] = (
 )  # fmt: skip
 BEAUFORT_FORCE = Range(0.0, 11.0)
 WAVELENGTH_NM = Range(400.0, 700.0)
-# [hardware] σ bounds: far beyond any real unit, short of values that break the geometry (a
-# focal length off by 20 %, a camera turned by 10°).
-HARDWARE_RANGES: dict[str, Range] = {
-    "focal_sigma_rel": Range(0.0, 0.2),
-    "principal_point_sigma_px": Range(0.0, 200.0),
-    "polarizer_sigma_deg": Range(0.0, 10.0),
-    "focal_tolerance_rel": Range(0.0, 0.2),
-    "decentre_sigma_um": Range(0.0, 1000.0),
-    "boresight_sigma_deg": Range(0.0, 10.0),
-    "clock_offset_sigma_ms": Range(0.0, 1000.0),
-}
 #: [hardware]'s on/off keys, with the position an ideal model gives them.
 HARDWARE_SWITCHES: dict[str, bool] = {"lens_compensation": False, "distortion_correction": True}
 GATE_PROBABILITY = Range(0.5, 1.0)

@@ -9,12 +9,15 @@ all of a file's problems are reported at once); the error texts every message is
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import date, datetime, time
 from typing import Any, TypeVar
 
+from scenarios.fields import Range as Range
+from scenarios.fields import declaration
 from scenarios.schema import Vec2
 
 T = TypeVar("T")
@@ -56,34 +59,6 @@ class ScenarioError(ValueError):
         # Pickle by the constructor's arguments (the default would pass the formatted text as
         # ``errors``): the error must cross process boundaries intact in Monte Carlo campaigns.
         return (type(self), (self.errors, self.source))
-
-
-@dataclass(frozen=True, slots=True)
-class Range:
-    """A closed, open or half-open interval of allowed numbers; None for no bound."""
-
-    lo: float | None = None
-    hi: float | None = None
-    lo_open: bool = False
-    hi_open: bool = False
-
-    def __contains__(self, x: float) -> bool:
-        if self.lo is not None and (x <= self.lo if self.lo_open else x < self.lo):
-            return False
-        return not (self.hi is not None and (x >= self.hi if self.hi_open else x > self.hi))
-
-    def __str__(self) -> str:
-        def num(x: float) -> str:  # an int bound exactly (a seed's 2**63 - 1), a float short
-            return str(x) if isinstance(x, int) else f"{x:g}"
-
-        if self.hi is None:
-            return (
-                f"{'>' if self.lo_open else '>='} {num(self.lo)}" if self.lo is not None else "any"
-            )
-        if self.lo is None:
-            return f"{'<' if self.hi_open else '<='} {num(self.hi)}"
-        left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
-        return f"{left}{num(self.lo)}, {num(self.hi)}{right}"
 
 
 # ---- showing values in messages ----------------------------------------------------------------
@@ -137,7 +112,9 @@ def _choices(options: Iterable[str]) -> str:
 
 # ---- the checker -------------------------------------------------------------------------------
 
-_MISSING: Any = object()
+_MISSING: Any = object()  # required: no default
+#: A getter's default when not given: the field's declared default (scenarios.fields).
+_DECLARED: Any = object()
 
 
 class _Report:
@@ -238,11 +215,37 @@ def _vec2(errs: _Report, path: str, value: Any) -> Vec2 | None:
 class _Table:
     """One TOML table being read: typed getters that record problems and the keys they know."""
 
-    def __init__(self, report: _Report, path: str, data: Mapping[str, Any]):
+    def __init__(
+        self, report: _Report, path: str, data: Mapping[str, Any], schema: type | None = None
+    ):
         self.report = report
         self.path = path
         self.data = data
         self.known: list[str] = []
+        # The dataclass this table is read into: its fields' declarations give the getters their
+        # defaults, ranges and choices (scenarios.fields), so the loader writes none of them.
+        self.schema = schema
+
+    def of(self, schema: type) -> _Table:
+        """This table, read into ``schema``'s fields (their declared defaults and ranges)."""
+        self.schema = schema
+        return self
+
+    def _declared(
+        self, key: str, allowed: Any, default: Any, choices: Any = None
+    ) -> tuple[Any, Any, Any]:
+        """(allowed, default, choices): what the getter was given, else the field's declaration.
+
+        A default not given is the declared one; a field declared without one is required.
+        """
+        d = declaration(self.schema, key) if self.schema is not None else None
+        if allowed is None and d is not None:
+            allowed = d.allowed
+        if choices is None and d is not None:
+            choices = d.names()
+        if default is _DECLARED:
+            default = _MISSING if d is None or d.default is dataclasses.MISSING else d.default
+        return allowed, default, choices
 
     def at(self, key: str) -> str:
         """Dotted path of a key in this table."""
@@ -257,13 +260,19 @@ class _Table:
             self.report.add(self.at(key), MSG_MISSING.format(expected=expected))
         return _MISSING if default is _MISSING else _Default(default)
 
-    def number(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+    def number(self, key: str, allowed: Range | None = None, default: Any = _DECLARED) -> Any:
+        allowed, default, _ = self._declared(key, allowed, default)
+        if allowed is None:
+            raise TypeError(f"{self.at(key)}: no range given or declared")
         raw = self._raw(key, default, _expected("a number", allowed))
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value
         return _number(self.report, self.at(key), raw, allowed)
 
-    def integer(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+    def integer(self, key: str, allowed: Range | None = None, default: Any = _DECLARED) -> Any:
+        allowed, default, _ = self._declared(key, allowed, default)
+        if allowed is None:
+            raise TypeError(f"{self.at(key)}: no range given or declared")
         raw = self._raw(key, default, _expected("an integer", allowed))
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value
@@ -275,9 +284,10 @@ class _Table:
         *,
         choices: Sequence[str] | None = None,
         non_empty: bool = False,
-        default: Any = _MISSING,
+        default: Any = _DECLARED,
         expected: str = "",
     ) -> Any:
+        _, default, choices = self._declared(key, None, default, choices)
         expected = expected or (f"one of {_choices(choices)}" if choices else "a string")
         raw = self._raw(key, default, expected)
         if raw is _MISSING or isinstance(raw, _Default):
@@ -300,7 +310,8 @@ class _Table:
             return None
         return raw
 
-    def boolean(self, key: str, default: Any = _MISSING) -> Any:
+    def boolean(self, key: str, default: Any = _DECLARED) -> Any:
+        _, default, _ = self._declared(key, None, default)
         raw = self._raw(key, default, "true or false")
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value
@@ -314,14 +325,18 @@ class _Table:
             return None
         return raw
 
-    def vec2(self, key: str, default: Any = _MISSING) -> Any:
+    def vec2(self, key: str, default: Any = _DECLARED) -> Any:
+        _, default, _ = self._declared(key, None, default)
         raw = self._raw(key, default, "[East, North] in metres")
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value
         return _vec2(self.report, self.at(key), raw)
 
-    def pair(self, key: str, allowed: Range, default: Any = _MISSING) -> Any:
+    def pair(self, key: str, allowed: Range | None = None, default: Any = _DECLARED) -> Any:
         """Two numbers ``[a, b]``, each in ``allowed`` (None when a check failed)."""
+        allowed, default, _ = self._declared(key, allowed, default)
+        if allowed is None:
+            raise TypeError(f"{self.at(key)}: no range given or declared")
         raw = self._raw(key, default, f"[a, b], two numbers in {allowed}")
         if raw is _MISSING or isinstance(raw, _Default):
             return None if raw is _MISSING else raw.value

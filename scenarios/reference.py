@@ -97,23 +97,25 @@ def _normalise(path: str) -> str:
     return re.sub(r"\[\d+\]", "[]", path)
 
 
-def _string_schema(*, choices: Any = None, **_: Any) -> dict[str, Any]:
+def _string_schema(allowed: Any, choices: Any) -> dict[str, Any]:
     return {"type": "string", **({"enum": list(choices)} if choices else {})}
 
 
-#: The loader's typed getters and the JSON Schema each one's arguments give.
+#: The loader's typed getters and the JSON Schema each one's range or choices give (what the
+#: getter was passed, else the field's declaration: scenarios.fields).
 _TYPED: Mapping[str, Any] = {
-    "number": lambda allowed, *a, **k: _range_schema("number", allowed),
-    "integer": lambda allowed, *a, **k: _range_schema("integer", allowed),
+    "number": lambda allowed, choices: _range_schema("number", allowed),
+    "integer": lambda allowed, choices: _range_schema("integer", allowed),
     "string": _string_schema,
-    "boolean": lambda *a, **k: {"type": "boolean"},
-    "vec2": lambda *a, **k: {"type": "array", "items": {"type": "number"}, "minItems": 2,
-                             "maxItems": 2},
-    "pair": lambda allowed, *a, **k: {"type": "array", "items": _range_schema("number", allowed),
+    "boolean": lambda allowed, choices: {"type": "boolean"},
+    "vec2": lambda allowed, choices: {"type": "array", "items": {"type": "number"}, "minItems": 2,
+                                      "maxItems": 2},
+    "pair": lambda allowed, choices: {"type": "array", "items": _range_schema("number", allowed),
                                       "minItems": 2, "maxItems": 2},
-    "table": lambda *a, **k: {"type": "object"},
-    "tables": lambda *a, **k: {"type": "array", "items": {"type": "object"}},
+    "table": lambda allowed, choices: {"type": "object"},
+    "tables": lambda allowed, choices: {"type": "array", "items": {"type": "object"}},
 }  # fmt: skip
+_RANGED = ("number", "integer", "pair")
 
 
 @contextmanager
@@ -138,7 +140,11 @@ def _watch() -> Iterator[dict[str, Field]]:
             out = typed[name](self, key, *args, **kwargs)
             field = seen.get(_normalise(self.at(key)))
             if field is not None and not field.json:
-                field.json = _TYPED[name](*args, **kwargs)
+                given = args[0] if args and name in _RANGED else kwargs.get("allowed")
+                allowed, _, choices = self._declared(
+                    key, given, reading._MISSING, kwargs.get("choices")
+                )
+                field.json = _TYPED[name](allowed, choices)
             return out
 
         return getter

@@ -20,7 +20,13 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from typing import Any, Literal, TypeAlias
 
-from twin.core.extensions import COMPASS_METHODS, INS_ONLY
+from scenarios import ranges as R
+from scenarios.fields import Range, declared
+from scenarios.ranges import TANK_FLOOR_DEPTH_M as TANK_FLOOR_DEPTH_M
+from scenarios.ranges import TANK_LENGTH_M as TANK_LENGTH_M
+from scenarios.ranges import TANK_MAX_DEPTH_M as TANK_MAX_DEPTH_M
+from scenarios.ranges import TANK_WIDTH_M as TANK_WIDTH_M
+from twin.core.extensions import COMPASS_METHODS, INS_ONLY, SENSORS, WATER_BODIES
 from twin.core.mission import (
     MISSION_KINDS,
     HeadingLeg,
@@ -73,14 +79,6 @@ AttitudeSource: TypeAlias = Literal["truth", "estimate"]
 ATTITUDE_SOURCES: tuple[str, ...] = ("truth", "estimate")
 SPEED_CONTROLS: tuple[str, ...] = ("feedback", "propeller")
 
-# The tank scene (models/auv/scene_tank.xml): 12 m (East) x 6 m (North) x 4 m deep, centred on the
-# world origin, water surface at z = 0.
-TANK_LENGTH_M = 12.0
-TANK_WIDTH_M = 6.0
-TANK_FLOOR_DEPTH_M = 4.0
-# Deepest depth a scenario may command in the tank: the floor is at 4 m and the hull (about 0.19 m
-# in diameter) pitches while it holds depth, so keep half a metre of water under the keel.
-TANK_MAX_DEPTH_M = 3.5
 
 OverrideValue: TypeAlias = int | float | tuple[int | float, ...]
 
@@ -98,8 +96,8 @@ def _enu_from_compass(speed_mps: float, toward_deg: float) -> Vec2:
 class Place:
     """Where on Earth the trial is: fixes the sun's position with the start time."""
 
-    latitude_deg: float
-    longitude_deg: float
+    latitude_deg: float = declared(allowed=R.LATITUDE_DEG)
+    longitude_deg: float = declared(allowed=R.LONGITUDE_DEG)
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,10 +114,10 @@ class WaterIops:
         source: Where a, b and K_d come from: a citation of the measurement, or "assumption: …".
     """
 
-    a_per_m: float
-    b_per_m: float
-    kd_per_m: float
-    source: str
+    a_per_m: float = declared(allowed=R.ATTENUATION_PER_M)
+    b_per_m: float = declared(allowed=R.SCATTERING_PER_M)
+    kd_per_m: float = declared(allowed=R.ATTENUATION_PER_M)
+    source: str = declared()
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,13 +150,13 @@ class Water:
             S = 35).
     """
 
-    density_kg_m3: float = 1025.0
-    temperature_c: float = 15.0
-    salinity_psu: float = 35.0
-    jerlov_type: JerlovType | str = "II"
-    seabed_depth_m: float | None = None
-    particle_peak_polarization: float = PARTICLE_DOP_MAX
-    depolarization_ratio: float = WATER_DEPOLARIZATION_RATIO
+    density_kg_m3: float = declared(1025.0, R.DENSITY_KG_M3)
+    temperature_c: float = declared(15.0, R.TEMPERATURE_C)
+    salinity_psu: float = declared(35.0, R.SALINITY_PSU)
+    jerlov_type: JerlovType | str = declared("II", choices=WATER_BODIES.names)
+    seabed_depth_m: float | None = declared(None, R.POSITIVE)
+    particle_peak_polarization: float = declared(PARTICLE_DOP_MAX, R.UNIT_INTERVAL)
+    depolarization_ratio: float = declared(WATER_DEPOLARIZATION_RATIO, R.DEPOLARIZATION_RATIO)
     iops: WaterIops | None = None
 
 
@@ -166,9 +164,9 @@ class Water:
 class ProfilePoint:
     """One point of a depth profile of the current."""
 
-    depth_m: float
-    speed_mps: float
-    toward_deg: float
+    depth_m: float = declared(allowed=R.NON_NEGATIVE)
+    speed_mps: float = declared(allowed=R.CURRENT_SPEED_MPS)
+    toward_deg: float = declared(allowed=R.COMPASS_DEG)
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,12 +185,12 @@ class Current:
     the opposite of the meteorological "from").
     """
 
-    kind: CurrentKind = "none"
-    speed_mps: float = 0.0
-    toward_deg: float = 0.0
+    kind: CurrentKind = declared("none", choices=CURRENT_KINDS)
+    speed_mps: float = declared(0.0, R.CURRENT_SPEED_MPS)
+    toward_deg: float = declared(0.0, R.COMPASS_DEG)
     profile: tuple[ProfilePoint, ...] = ()
-    sigma_mps: float = 0.0
-    tau_s: float = 60.0
+    sigma_mps: float = declared(0.0, R.GUST_SIGMA_MPS)
+    tau_s: float = declared(60.0, R.POSITIVE)
 
     def mean_velocity_en(self, depth_m: float) -> Vec2:
         """The mean (deterministic) current at a depth as (East, North) in m/s.
@@ -226,12 +224,12 @@ class Initial:
     :mod:`twin.core.frames` (pitch nose up positive, roll starboard down positive).
     """
 
-    position_m: Vec2 = (0.0, 0.0)
-    depth_m: float = 0.0
-    heading_deg: float = 0.0
-    roll_deg: float = 0.0
-    pitch_deg: float = 0.0
-    speed_mps: float = 0.0
+    position_m: Vec2 = declared((0.0, 0.0))
+    depth_m: float = declared(0.0, R.NON_NEGATIVE)
+    heading_deg: float = declared(0.0, R.COMPASS_DEG)
+    roll_deg: float = declared(0.0, R.ROLL_DEG)
+    pitch_deg: float = declared(0.0, R.PITCH_DEG)
+    speed_mps: float = declared(0.0, R.VEHICLE_SPEED_MPS)
 
 
 # ---- missions: the shared contract, twin/core/mission.py ---------------------------------
@@ -258,7 +256,7 @@ class ExtraSensor:
     """
 
     name: str
-    kind: str
+    kind: str = declared(choices=SENSORS.names)
     preset: str | None = None
     site: str | None = None
     overrides: tuple[tuple[str, OverrideValue], ...] = ()
@@ -287,8 +285,8 @@ class Sensors:
             ones, in the file's order (each with its own random stream).
     """
 
-    imu: str = "lig2024"
-    depth: str = "ms5837_30ba"
+    imu: str = declared("lig2024")
+    depth: str = declared("ms5837_30ba")
     imu_overrides: tuple[tuple[str, OverrideValue], ...] = ()
     depth_overrides: tuple[tuple[str, OverrideValue], ...] = ()
     # The skylight polarization camera: a preset name, or None for a trial without one (it is
@@ -338,18 +336,18 @@ class Optics:
             the tank scene); ``"ideal"``: none.
     """
 
-    cie_sky_type: int = 12
-    sky_polarization: str = "rayleigh"
-    dop_max: float = 0.75
-    berry_delta_deg: float = 30.0
-    zenith_radiance_w_m2_sr_nm: float = 0.05
-    turbidity: float = 1.0
-    wind_speed_mps: float = 0.0
-    wind_toward_deg: float = 0.0
-    wavelength_nm: float = 500.0
-    bubbles: str = "hall_novarini"
-    flicker: str = "caustics"
-    particles: str = "marine_snow"
+    cie_sky_type: int = declared(12, R.CIE_SKY_TYPE)
+    sky_polarization: str = declared("rayleigh", choices=SKY_POLARIZATION_MODELS)
+    dop_max: float = declared(0.75, R.UNIT_INTERVAL)
+    berry_delta_deg: float = declared(30.0, R.BERRY_DELTA_DEG)
+    zenith_radiance_w_m2_sr_nm: float = declared(0.05, R.ZENITH_RADIANCE)
+    turbidity: float = declared(1.0, R.TURBIDITY)
+    wind_speed_mps: float = declared(0.0, R.WIND_SPEED_MPS)
+    wind_toward_deg: float = declared(0.0, R.COMPASS_DEG)
+    wavelength_nm: float = declared(500.0, R.WAVELENGTH_NM)
+    bubbles: str = declared("hall_novarini", choices=BUBBLE_MODELS)
+    flicker: str = declared("caustics", choices=FLICKER_MODELS)
+    particles: str = declared("marine_snow", choices=PARTICLE_MODELS)
 
 
 GRAVITY_MAPS: tuple[str, ...] = ("none", "seafloor", "random", "wang2023", "file")
@@ -389,18 +387,18 @@ class Gravity:
             ``sensors.gravimeter``).
     """
 
-    map: str = "none"
-    file: str = ""
-    variable: str = ""
-    size_km: Vec2 = (40.0, 40.0)
-    spacing_m: float = 500.0
-    map_seed: int = 0
-    correlation_km: float = 5.0
-    range_mgal: float = 78.0
-    launch_km: Vec2 | None = None
-    stored_spacing_m: float = 1000.0
-    map_error_mgal: float = 1.7
-    matching: bool = True
+    map: str = declared("none", choices=GRAVITY_MAPS)
+    file: str = declared("")
+    variable: str = declared("")
+    size_km: Vec2 = declared((40.0, 40.0), R.MAP_SIZE_KM)
+    spacing_m: float = declared(500.0, R.MAP_SPACING_M)
+    map_seed: int = declared(0, R.NON_NEGATIVE)
+    correlation_km: float = declared(5.0, R.MAP_CORRELATION_KM)
+    range_mgal: float = declared(78.0, R.MAP_RANGE_MGAL)
+    launch_km: Vec2 | None = declared(None, R.MAP_POSITION_KM)
+    stored_spacing_m: float = declared(1000.0, R.MAP_SPACING_M)
+    map_error_mgal: float = declared(1.7, R.MAP_ERROR_MGAL)
+    matching: bool = declared(True)
 
 
 CALIBRATION_MODELS: tuple[str, ...] = ("checkerboard", "ideal")
@@ -436,18 +434,20 @@ class Hardware:
             and the vehicle undoes what it found (``twin.onboard.lens``); False: uncompensated.
     """
 
-    calibration: str = "checkerboard"
-    focal_sigma_rel: float = 0.003
-    principal_point_sigma_px: float = 2.0
-    polarizer_sigma_deg: float = 0.21
-    distortion_correction: bool = True
-    focal_tolerance_rel: float = 0.05 / math.sqrt(3.0)
-    decentre_sigma_um: float = 18.0
-    mounting: str = "bracket"
-    boresight_sigma_deg: float = 0.19
-    clock_offset_sigma_ms: float = 5.0
-    lens: str = "fresnel"
-    lens_compensation: bool = True
+    # The σ bounds: far beyond any real unit, short of values that break the geometry (a focal
+    # length off by 20 %, a camera turned by 10°).
+    calibration: str = declared("checkerboard", choices=CALIBRATION_MODELS)
+    focal_sigma_rel: float = declared(0.003, Range(0.0, 0.2))
+    principal_point_sigma_px: float = declared(2.0, Range(0.0, 200.0))
+    polarizer_sigma_deg: float = declared(0.21, Range(0.0, 10.0))
+    distortion_correction: bool = declared(True)
+    focal_tolerance_rel: float = declared(0.05 / math.sqrt(3.0), Range(0.0, 0.2))
+    decentre_sigma_um: float = declared(18.0, Range(0.0, 1000.0))
+    mounting: str = declared("bracket", choices=MOUNTING_MODELS)
+    boresight_sigma_deg: float = declared(0.19, Range(0.0, 10.0))
+    clock_offset_sigma_ms: float = declared(5.0, Range(0.0, 1000.0))
+    lens: str = declared("fresnel", choices=LENS_MODELS)
+    lens_compensation: bool = declared(True)
 
     @classmethod
     def ideal(cls) -> Hardware:
@@ -507,14 +507,14 @@ class Navigation:
 
     variants: tuple[str, ...] = ()
     steer_on: str | None = None
-    compass_rate_hz: float = 1.0
-    gravity_aiding: bool = True
-    depth_aiding: bool = True
-    initial_error: bool = True
-    gate_probability: float = 0.999
-    sun_measurement: str = "azimuth"
-    tuning: str = "imu"
-    alignment: str = "paper"
+    compass_rate_hz: float = declared(1.0, R.CAMERA_RATE_HZ)
+    gravity_aiding: bool = declared(True)
+    depth_aiding: bool = declared(True)
+    initial_error: bool = declared(True)
+    gate_probability: float = declared(0.999, R.GATE_PROBABILITY)
+    sun_measurement: str = declared("azimuth", choices=SUN_MEASUREMENTS)
+    tuning: str = declared("imu", choices=NAV_TUNINGS)
+    alignment: str = declared("paper", choices=NAV_ALIGNMENTS)
     methods: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
 
     def method_params(self, name: str) -> dict[str, Any]:
@@ -540,22 +540,22 @@ class Autopilot:
     speed would be the INS's ground speed, which carries the INS's velocity error).
     """
 
-    rate_hz: float = 10.0
-    attitude_source: AttitudeSource = "truth"
-    speed_control: str = "feedback"
+    rate_hz: float = declared(10.0, R.RATE_HZ)
+    attitude_source: AttitudeSource = declared("truth", choices=ATTITUDE_SOURCES)
+    speed_control: str = declared("feedback", choices=SPEED_CONTROLS)
 
 
 @dataclass(frozen=True, slots=True)
 class Recording:
     """What the run records. The chase camera is rendered only where a GL context exists."""
 
-    truth_rate_hz: float = 10.0
-    camera: bool = True
-    camera_rate_hz: float = 1.0
-    camera_width: int = 320
-    camera_height: int = 240
+    truth_rate_hz: float = declared(10.0, R.RATE_HZ)
+    camera: bool = declared(True)
+    camera_rate_hz: float = declared(1.0, R.CAMERA_RATE_HZ)
+    camera_width: int = declared(320, R.CAMERA_WIDTH)
+    camera_height: int = declared(240, R.CAMERA_HEIGHT)
     # Polarimeter images (intensity, AoP, DoP) logged at most this often; frames are large.
-    polarimeter_log_rate_hz: float = 1.0
+    polarimeter_log_rate_hz: float = declared(1.0, R.CAMERA_RATE_HZ)
 
 
 # ---- the scenario ------------------------------------------------------------------------------
@@ -566,13 +566,13 @@ class Scenario:
     """One sea trial, validated. ``start_utc`` is timezone-aware, in UTC."""
 
     name: str
-    duration_s: float
+    duration_s: float = declared(allowed=R.DURATION_S)
     start_utc: datetime
     place: Place
     mission: Mission
-    description: str = ""
-    seed: int = 0
-    scene: SceneName = "open_sea"
+    description: str = declared("")
+    seed: int = declared(0, R.SEED)
+    scene: SceneName = declared("open_sea", choices=SCENES)
     water: Water = field(default_factory=Water)
     current: Current = field(default_factory=Current)
     initial: Initial = field(default_factory=Initial)
