@@ -18,7 +18,7 @@ def test_the_trial_is_registered_and_checks_its_parameters() -> None:
     assert any(e.startswith("jerlov_type: 'murky'; allowed: [") and "'1C'" in e for e in errs)
     assert any(e.startswith("depth_m: 0.0; allowed: a number in [0.05, 100]") for e in errs)
     assert any(e.startswith("tilt_deg: 90.0") for e in errs)
-    assert any(e.startswith("tilt_axis: 'yaw'; allowed: 'roll', 'pitch'") for e in errs)
+    assert any(e.startswith("tilt_axis: 'yaw'; allowed: ['roll', 'pitch']") for e in errs)
     assert any(e.startswith("preset: 'phx'; allowed: ['phx050s_p_bin4'") for e in errs)
     assert any(e.startswith("wind_speed_mps: -1.0") for e in errs)
     assert any(e.startswith("methods: ['lig']; allowed") and "'snell'" in e for e in errs)

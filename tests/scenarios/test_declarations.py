@@ -17,22 +17,11 @@ import pytest
 import scenarios
 from scenarios import ScenarioError, parse_scenario, schema
 from scenarios.fields import Range, declaration
+from scenarios.reference import SECTIONS
 
-#: Tables read into one dataclass each, as a scenario file names them ("" = the top level).
-TABLES: dict[str, type] = {
-    "": schema.Scenario,
-    "place": schema.Place,
-    "water": schema.Water,
-    "current": schema.Current,
-    "initial": schema.Initial,
-    "sensors": schema.Sensors,
-    "optics": schema.Optics,
-    "gravity": schema.Gravity,
-    "hardware": schema.Hardware,
-    "navigation": schema.Navigation,
-    "autopilot": schema.Autopilot,
-    "recording": schema.Recording,
-}
+#: Tables read into one dataclass each, as a scenario file names them ("" = the top level): the
+#: field reference's own map of them.
+TABLES: dict[str, type] = {"": schema.Scenario, **SECTIONS}
 #: Fields a kind makes required although the dataclass has a default (the other kinds ignore them).
 REQUIRED_BY_KIND = {("current", "sigma_mps"), ("current", "tau_s")}
 

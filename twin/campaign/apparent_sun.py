@@ -35,7 +35,7 @@ import numpy as np
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig
-from twin.campaign.trials import StudyTrial
+from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem
 from twin.core.extensions import COMPASS_METHODS, WATER_BODIES
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
@@ -60,29 +60,15 @@ DEFAULTS: dict[str, Any] = {
 }
 
 
-def _number(p: Mapping[str, Any], key: str, lo: float, hi: float, what: str) -> list[str]:
-    v = p.get(key)
-    if isinstance(v, int | float) and not isinstance(v, bool) and lo <= v <= hi:
-        return []
-    return [f"{key}: {v!r}; allowed: a number in [{lo:g}, {hi:g}] ({what})"]
-
-
 def check(p: Mapping[str, Any]) -> list[str]:
     """Errors of a parameter table (each names the parameter, the value and what is allowed)."""
-    errs: list[str] = []
-    if p.get("jerlov_type") not in WATER_BODIES.names():
-        errs.append(f"jerlov_type: {p.get('jerlov_type')!r}; allowed: {list(WATER_BODIES.names())}")
-    errs += _number(p, "turbidity", 0.0, 100.0, "× the water's particle scattering")
-    errs += _number(p, "depth_m", 0.05, 100.0, "m")
-    if p.get("preset") not in PRESETS:
-        errs.append(f"preset: {p.get('preset')!r}; allowed: {list(PRESETS)}")
+    errs = choice_problem(p, "jerlov_type", WATER_BODIES.names())
+    errs += number_problem(p, "turbidity", 0.0, 100.0, "× the water's particle scattering")
+    errs += number_problem(p, "depth_m", 0.05, 100.0, "m")
+    errs += choice_problem(p, "preset", PRESETS)
     if not isinstance(p.get("auto_exposure"), bool):
         errs.append(f"auto_exposure: {p.get('auto_exposure')!r}; allowed: true or false")
-    m = p.get("methods")
-    names = COMPASS_METHODS.names()
-    if not (isinstance(m, list) and m and all(x in names for x in m) and len(set(m)) == len(m)):
-        errs.append(f"methods: {m!r}; allowed: a non-empty list of distinct {list(names)}")
-    return errs
+    return errs + names_problem(p, "methods", COMPASS_METHODS.names())
 
 
 def _wrap180(x: float) -> float:

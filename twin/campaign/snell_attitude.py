@@ -34,7 +34,7 @@ import numpy as np
 import sensors
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.render import OpticsConfig
-from twin.campaign.trials import StudyTrial
+from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem
 from twin.core.extensions import WATER_BODIES
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
@@ -67,30 +67,16 @@ DEFAULTS: dict[str, Any] = {
 }
 
 
-def _number(p: Mapping[str, Any], key: str, lo: float, hi: float, what: str) -> list[str]:
-    v = p.get(key)
-    if isinstance(v, int | float) and not isinstance(v, bool) and lo <= v <= hi:
-        return []
-    return [f"{key}: {v!r}; allowed: a number in [{lo:g}, {hi:g}] ({what})"]
-
-
 def check(p: Mapping[str, Any]) -> list[str]:
     """Errors of a parameter table (each names the parameter, the value and what is allowed)."""
-    errs: list[str] = []
-    if p.get("jerlov_type") not in WATER_BODIES.names():
-        errs.append(f"jerlov_type: {p.get('jerlov_type')!r}; allowed: {list(WATER_BODIES.names())}")
-    errs += _number(p, "depth_m", 0.05, 100.0, "m")
-    errs += _number(p, "sun_elevation_deg", 5.0, 89.0, "°")
-    if p.get("tilt_axis") not in ("roll", "pitch"):
-        errs.append(f"tilt_axis: {p.get('tilt_axis')!r}; allowed: 'roll', 'pitch'")
-    errs += _number(p, "tilt_deg", -50.0, 50.0, "° about the tilt axis")
-    errs += _number(p, "wind_speed_mps", 0.0, 30.0, "m/s at 12.5 m; 0: a flat sea")
-    if p.get("preset") not in PRESETS:
-        errs.append(f"preset: {p.get('preset')!r}; allowed: {list(PRESETS)}")
-    m = p.get("methods")
-    if not (isinstance(m, list) and m and all(x in METHODS for x in m) and len(set(m)) == len(m)):
-        errs.append(f"methods: {m!r}; allowed: a non-empty list of distinct {list(METHODS)}")
-    return errs
+    errs = choice_problem(p, "jerlov_type", WATER_BODIES.names())
+    errs += number_problem(p, "depth_m", 0.05, 100.0, "m")
+    errs += number_problem(p, "sun_elevation_deg", 5.0, 89.0, "°")
+    errs += choice_problem(p, "tilt_axis", ("roll", "pitch"))
+    errs += number_problem(p, "tilt_deg", -50.0, 50.0, "° about the tilt axis")
+    errs += number_problem(p, "wind_speed_mps", 0.0, 30.0, "m/s at 12.5 m; 0: a flat sea")
+    errs += choice_problem(p, "preset", PRESETS)
+    return errs + names_problem(p, "methods", list(METHODS))
 
 
 def _wrap180(x: float) -> float:

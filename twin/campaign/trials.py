@@ -16,7 +16,7 @@ names); ``check`` names every bad parameter before anything runs.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,3 +77,29 @@ def _as_trial(name: str, obj: Any) -> StudyTrial:
     if callable(obj):  # a bare function: no defaults, any parameters
         return StudyTrial(name, obj)
     raise ValueError(f"{name!r} is not a StudyTrial or a function")
+
+
+# ---- a study's parameter checks (one line per problem: the parameter, the value, what is allowed)
+
+
+def number_problem(p: Mapping[str, Any], key: str, lo: float, hi: float, what: str) -> list[str]:
+    """``[]`` when ``p[key]`` is a number in [lo, hi], else the one-line problem."""
+    v = p.get(key)
+    if isinstance(v, int | float) and not isinstance(v, bool) and lo <= v <= hi:
+        return []
+    return [f"{key}: {v!r}; allowed: a number in [{lo:g}, {hi:g}] ({what})"]
+
+
+def choice_problem(p: Mapping[str, Any], key: str, allowed: Sequence[str]) -> list[str]:
+    """``[]`` when ``p[key]`` is one of ``allowed``, else the one-line problem."""
+    if p.get(key) in allowed:
+        return []
+    return [f"{key}: {p.get(key)!r}; allowed: {list(allowed)}"]
+
+
+def names_problem(p: Mapping[str, Any], key: str, allowed: Sequence[str]) -> list[str]:
+    """``[]`` when ``p[key]`` is a non-empty list of distinct names from ``allowed``."""
+    m = p.get(key)
+    if isinstance(m, list) and m and all(x in allowed for x in m) and len(set(m)) == len(m):
+        return []
+    return [f"{key}: {m!r}; allowed: a non-empty list of distinct {list(allowed)}"]
