@@ -125,7 +125,7 @@ def gravity_partials(lat, h, free_air, earth):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def fill_f(out, index, lat, h, v, c, f_b, dg_dlat, dg_dh, earth):  # type: ignore[no-untyped-def]
-    """Write :func:`twin.onboard.eskf._f_varying_part`'s values into ``out[index]`` (flat F).
+    """Write :func:`twin.onboard.eskf_dynamics._f_varying_part`'s values into ``out[index]``.
 
     The same expressions in the same order (squares through libm's ``pow``, as there).
     """

@@ -40,7 +40,8 @@ import numpy as np
 
 from twin.core import earth
 from twin.core.gravity_map import GravityGrid
-from twin.onboard.eskf import DIM, DV, I_H, I_LAT, I_LON, Eskf, UpdateResult
+from twin.onboard.eskf import Eskf, UpdateResult
+from twin.onboard.eskf_dynamics import DIM, DV, I_H, I_LAT, I_LON
 from twin.onboard.gravity.pcrb import observation_variance
 from twin.onboard.gravity.sitan import sitan_slope
 
