@@ -18,6 +18,7 @@ from scenarios.ranges import (
     HARDWARE_SWITCHES,
 )
 from scenarios.reading import (
+    _MISSING,
     MSG_NOT_A_CHOICE,
     MSG_NOT_FINITE,
     MSG_WRONG_TYPE,
@@ -44,7 +45,7 @@ from scenarios.schema import (
     Sensors,
     nav_variants,
 )
-from twin.core.extensions import INS_ONLY
+from twin.core.extensions import INS_ONLY, NAV_AIDS
 
 
 def _overrides(t: _Table | None) -> tuple[tuple[str, OverrideValue], ...] | None:
@@ -227,6 +228,7 @@ def read_navigation(t: _Table | None) -> Navigation | None:
         tuning=t.string("tuning"),
         alignment=t.string("alignment"),
         methods=_method_params(t.table("methods"), variants),
+        aids=_aids(t.table("aids", expected="a table of aids by sensor name")),
     )
     t.finish()
     if nav is not None and nav.steer_on == "":
@@ -271,6 +273,38 @@ def _method_params(
             ok = False
         else:
             out.append((name, tuple(params.items())))
+    return tuple(out) if ok else None
+
+
+def _aids(t: _Table | None) -> tuple[tuple[str, str, tuple[tuple[str, Any], ...]], ...] | None:
+    """``[navigation.aids.<sensor>]``: the aid that fuses a sensor's readings, and its parameters.
+
+    The sensor must be one of the scenario's extra sensors (the loader's cross-table check);
+    the parameters are checked by building the aid as a run does
+    (``twin.sim.build.check_navigation``); here, the tables' shapes and the aid's name.
+    """
+    if t is None:
+        return None
+    out = []
+    ok = True
+    for sensor, raw in t.data.items():
+        t.known.append(sensor)
+        path = t.at(sensor)
+        if not isinstance(raw, Mapping):
+            what = MSG_WRONG_TYPE.format(
+                value=_show(raw), type_name=_type_name(raw), expected="a table with aid = ..."
+            )
+            t.report.add(path, what)
+            ok = False
+            continue
+        st = _Table(t.report, path, raw)
+        aid = st.string("aid", choices=NAV_AIDS.names(), default=_MISSING)
+        st.known += [k for k in raw if k != "aid"]
+        st.finish()
+        if aid is None:
+            ok = False
+            continue
+        out.append((sensor, aid, tuple((k, v) for k, v in raw.items() if k != "aid")))
     return tuple(out) if ok else None
 
 

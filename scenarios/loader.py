@@ -115,7 +115,7 @@ def _navigation_checks(
     sensors: Sensors | None,
     autopilot: Autopilot | None,
 ) -> None:
-    """Compass variants need a camera; steering on the estimate needs a filter."""
+    """Compass variants need a camera; an aid, its sensor; steering on the estimate, a filter."""
     if nav is None:
         return
     compass = [v for v in nav.variants if v != "ins"]
@@ -131,6 +131,14 @@ def _navigation_checks(
             '"gyrocompass" needs the IMU\'s datasheet, which navigation.tuning = "paper" ignores; '
             'set tuning = "imu" or "datasheet", or alignment = "paper"',
         )
+    extra = {e.name for e in sensors.extra} if sensors is not None else None
+    for sensor, _, _ in nav.aids:
+        if extra is not None and sensor not in extra:
+            report.add(
+                f"navigation.aids.{sensor}",
+                f"{_show(sensor)} is not one of the scenario's extra sensors; allowed: "
+                f"the names in [sensors.extra] ({sorted(extra)})",
+            )
     if autopilot is not None and autopilot.attitude_source == "estimate" and not nav.variants:
         report.add(
             "autopilot.attitude_source",

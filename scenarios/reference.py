@@ -270,7 +270,8 @@ def markdown() -> str:
         "",
         "Free-form tables, not listed field by field: `sensors.*_overrides` (a preset's spec",
         "fields), `sensors.extra.<name>` (an extra sensor: `kind`, optional `preset` and `site`,",
-        "its spec's fields), `navigation.methods.<name>` (a compass method's config fields,",
+        "its spec's fields), `navigation.methods.<name>` (a compass method's config fields),",
+        "`navigation.aids.<sensor>` (`aid` and the aid's parameters;",
         "[extending.md](extending.md)).",
         "",
     ]
@@ -335,7 +336,8 @@ def json_schema() -> dict[str, Any]:
             entry.setdefault("default", default)
         if f.default is reading._MISSING and len(parts) == 1:
             root.setdefault("required", []).append(leaf)
-    free = [root["properties"]["navigation"]["properties"].get("methods", {})]
+    nav = root["properties"]["navigation"]["properties"]
+    free = [nav.get("methods", {}), nav.get("aids", {})]
     free += [v for k, v in root["properties"]["sensors"]["properties"].items()
              if k.endswith("_overrides") or k == "extra"]  # fmt: skip
     for table in free:

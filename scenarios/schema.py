@@ -463,9 +463,12 @@ def _extra_dict(e: ExtraSensor) -> dict[str, Any]:
 
 
 def _navigation_dict(nav: Navigation) -> dict[str, Any]:
-    out = {k: v for k, v in _plain(nav).items() if v is not None and k != "methods"}
+    skip = ("methods", "aids")
+    out = {k: v for k, v in _plain(nav).items() if v is not None and k not in skip}
     if nav.methods:
         out["methods"] = {name: {k: _plain(v) for k, v in params} for name, params in nav.methods}
+    if nav.aids:
+        out["aids"] = {s: {"aid": a} | {k: _plain(v) for k, v in p} for s, a, p in nav.aids}
     return out
 
 

@@ -190,6 +190,10 @@ class Navigation:
         methods: Each compass method's parameters, ``(name, ((field, value), ...))``: its
             config's fields (``[navigation.methods.<name>]`` in a scenario file), checked by
             building the method as a run does.
+        aids: Sensors whose readings the filters fuse through a navigation aid, ``(sensor, aid,
+            ((parameter, value), ...))`` (``[navigation.aids.<sensor>] aid = "<name>"`` and the
+            aid's parameters; ``twin.onboard.aids``): an extra sensor's readings as filter
+            updates, in every variant.
     """
 
     variants: tuple[str, ...] = ()
@@ -203,6 +207,7 @@ class Navigation:
     tuning: str = declared("imu", choices=NAV_TUNINGS)
     alignment: str = declared("paper", choices=NAV_ALIGNMENTS)
     methods: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+    aids: tuple[tuple[str, str, tuple[tuple[str, Any], ...]], ...] = ()
 
     def method_params(self, name: str) -> dict[str, Any]:
         """The parameters given to compass method ``name`` (empty: its defaults)."""

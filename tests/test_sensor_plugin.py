@@ -1,5 +1,8 @@
 """A sensor from another package (``examples/sensor_plugin``, a USBL), mounted by a scenario.
 
+The same package adds the onboard side, a navigation aid that fuses the fixes
+(``auv_twin.nav_aids``); a scenario ties them with ``[navigation.aids.<sensor>]``.
+
 The package's only link to the project is its entry point (``auv_twin.sensors``); the README's
 test command installs it. A scenario mounts it with ``[sensors.extra.<name>] kind = "usbl"``
 and sets its spec's fields; ``validate`` builds and starts it as a run does; a run samples it on
@@ -26,7 +29,8 @@ from scenarios import ScenarioError, parse_scenario
 from sensors.registry import sensor_class
 from twin.app.cli import main
 from twin.app.run import run_scenario
-from twin.core.extensions import SENSORS, ExtensionError
+from twin.core.extensions import NAV_AIDS, SENSORS, ExtensionError
+from twin.onboard.aids import create_aid
 
 ROOT = Path(__file__).resolve().parents[1]
 TRIAL = ROOT / "examples" / "sensor_plugin" / "usbl_trial.toml"
@@ -73,6 +77,7 @@ def test_the_example_trial_validates_and_bad_extras_are_one_line_errors(tmp_path
         "usbl", "usbl", "generic", None, (("range_fraction", 0.02),))  # fmt: skip
     assert parse_scenario(s.to_dict()) == s
     doc = s.to_dict()
+    del doc["navigation"]["aids"]  # (aids: below)
     doc["sensors"]["extra"] = {
         "imu": {"kind": "usbl"},  # a slot's name
         "fix": {"kind": "sonar"},  # no such kind
@@ -126,10 +131,89 @@ def test_an_extra_sensor_leaves_the_built_in_streams_alone(tmp_path: Path) -> No
     # gauge's noise, hence the filters, are bit for bit those of the run without it.
     base = dataclasses.replace(scenarios.load(TRIAL), duration_s=6.0)
     doc = copy.deepcopy(base.to_dict())
-    del doc["sensors"]["extra"]
+    del doc["sensors"]["extra"], doc["navigation"]["aids"]
     alone = parse_scenario(doc, "alone")
+    doc = copy.deepcopy(base.to_dict())
+    del doc["navigation"]["aids"]
+    base = parse_scenario(doc, "sampled, not fused")
     nav = {}
     for name, sc in (("with", base), ("without", alone)):
         m = run_scenario(sc, tmp_path / name, seed=9, record=False)
         nav[name] = json.dumps(m["navigation"]["variants"], sort_keys=True)
     assert nav["with"] == nav["without"]
+
+
+# ---- the onboard side: the fixes fused by a navigation aid ------------------------------------
+
+
+def test_the_example_aid_is_found_and_checks_its_parameters() -> None:
+    eps = {ep.name: ep for ep in metadata.entry_points(group=NAV_AIDS.group)}
+    assert eps["usbl_position"].value == "usbl_sensor.aid:UsblPositionAid"
+    aid = create_aid("usbl_position", range_fraction=0.05)
+    assert aid.name == "usbl_position" and aid.range_fraction == 0.05
+    with pytest.raises(ValueError, match=r"sigma_floor_m: -1; allowed: a finite number >= 0"):
+        create_aid("usbl_position", sigma_floor_m=-1)
+    with pytest.raises(ValueError, match="unexpected keyword argument 'colour'"):
+        create_aid("usbl_position", colour=1)
+    with pytest.raises(ExtensionError, match=r"navigation aid: 'sonar' is unknown; allowed: \["):
+        create_aid("sonar")
+
+
+def test_aids_are_checked_like_the_rest_of_the_scenario(tmp_path: Path, capsys) -> None:
+    s = scenarios.load(TRIAL)
+    assert s.navigation.aids == (
+        ("usbl", "usbl_position", (("sigma_floor_m", 0.1), ("range_fraction", 0.02))),)  # fmt: skip
+    assert parse_scenario(s.to_dict()) == s
+    doc = s.to_dict()
+    doc["navigation"]["aids"] = {"usbl": {"aid": "sonar_position"}}  # no such aid
+    with pytest.raises(ScenarioError, match=r'navigation\.aids\.usbl\.aid: "sonar_position"'):
+        parse_scenario(doc, "bad")
+    # A built-in sensor, which the filter fuses itself.
+    doc["navigation"]["aids"] = {"depth": {"aid": "usbl_position"}}
+    with pytest.raises(ScenarioError, match=r'navigation\.aids\.depth: "depth" is not one'):
+        parse_scenario(doc, "bad")
+    doc["navigation"]["aids"] = {"usbl": {"aid": "usbl_position", "range_fraction": -0.1}}
+    with pytest.raises(ScenarioError, match=r"navigation.aids.usbl: range_fraction: -0.1; allowed"):
+        parse_scenario(doc, "bad parameter")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TRIAL.read_text().replace('aid = "usbl_position"', 'aid = "usbl"'))
+    capsys.readouterr()
+    assert main(["validate", str(bad)]) == 2
+    out = capsys.readouterr().err
+    assert 'navigation.aids.usbl.aid: "usbl" is not one of' in out and "Traceback" not in out
+
+
+def test_the_fused_fixes_hold_the_position_the_free_ins_loses(tmp_path: Path) -> None:
+    # The same seed with and without the aid: the free INS (MEMS IMU, no DVL) drifts tens of
+    # metres in a minute; with a fix a second (σ ~ 0.3 m) the filter stays within metres.
+    aided = scenarios.load(TRIAL)
+    doc = aided.to_dict()
+    del doc["navigation"]["aids"]
+    free = parse_scenario(doc, "free")
+    out = {}
+    for name, sc in (("aided", aided), ("free", free)):
+        m = run_scenario(sc, tmp_path / name, seed=2, record=False)
+        out[name] = m["navigation"]["variants"]["ins"]
+    assert out["aided"]["updates_applied"]["usbl"] == m["sensor_readings"]["usbl"] == 60
+    assert "usbl" not in out["free"]["updates_applied"]
+    assert out["free"]["position_drift_max_m"] > 10.0
+    assert out["aided"]["position_drift_max_m"] < 3.0
+    assert out["aided"]["heading_rmse_deg"] < 2.0  # the update does not spoil the attitude
+
+
+def test_the_filter_s_vector_update_refuses_what_it_cannot_use() -> None:
+    from twin.onboard.eskf import Eskf
+    from twin.onboard.ins import NavState
+
+    f = Eskf(None, NavState(0.0, 0.6, 2.1, -10.0, np.zeros(3), np.eye(3)))
+    h = np.zeros((2, 15))
+    h[0, 6], h[1, 7] = 6.4e6, 5.0e6
+    r = np.diag([0.25, 0.25])
+    assert f.update_vector("fix", np.array([0.3, -0.2]), h, r).applied
+    assert f.counts["fix"] == 1
+    with pytest.raises(ValueError, match=r"z \(2,\), H \(3, 15\)"):
+        f.update_vector("fix", np.zeros(2), np.zeros((3, 15)), r)
+    with pytest.raises(ValueError, match="non-finite"):
+        f.update_vector("fix", np.array([np.nan, 0.0]), h, r)
+    with pytest.raises(ValueError, match="symmetric positive definite"):
+        f.update_vector("fix", np.zeros(2), h, np.diag([0.25, -1.0]))

@@ -173,6 +173,12 @@ SENSORS = ExtensionPoint(
     },
 )
 
+#: Navigation aids (``twin.onboard.aids``): a name → a ``NavAid`` subclass that turns a sensor's
+#: readings into filter updates. None built in (the built-in sensors' updates are the filter's
+#: own); a package that adds a sensor adds its aid here, and a scenario ties them with
+#: ``[navigation.aids.<sensor>] aid = "<name>"``.
+NAV_AIDS = ExtensionPoint("navigation aid", "auv_twin.nav_aids", {})
+
 #: Study trials a campaign runs (``twin.campaign.trials``): a ``StudyTrial`` or a function
 #: ``run(params, seed) -> metrics``.
 STUDY_TRIALS = ExtensionPoint(

@@ -96,7 +96,8 @@ __all__ = [
 
 
 Triple = tuple[float, float, float]
-MeasurementKind = Literal["gravity", "sun", "depth", "map"]
+#: The built-in measurements; a navigation aid (twin.onboard.aids) names its own kind.
+MeasurementKind = Literal["gravity", "sun", "depth", "map"] | str
 
 
 @dataclass(frozen=True, slots=True)
@@ -618,6 +619,35 @@ class Eskf:
         self.propagate_covariance()
         return self._update(kind, np.array([z]), row, np.array([[variance]]))
 
+    def update_vector(self, kind: str, z: FloatArray, h: FloatArray, r: FloatArray) -> UpdateResult:
+        """An m-dimensional update with innovation z (predicted − measured), H (m×15) and R.
+
+        For measurements modelled outside the filter (a navigation aid's:
+        :mod:`twin.onboard.aids`); gated against the χ² quantile of its dimension like the
+        others, and counted under ``kind``.
+
+        Raises:
+            ValueError: Shapes that do not agree, non-finite values, or an R that is not
+                symmetric positive definite.
+        """
+        zz = np.asarray(z, dtype=np.float64).reshape(-1)
+        m = len(zz)
+        hh = np.asarray(h, dtype=np.float64)
+        rr = np.asarray(r, dtype=np.float64)
+        if not (1 <= m <= 6 and hh.shape == (m, DIM) and rr.shape == (m, m)):
+            raise ValueError(
+                f"Eskf.update_vector {kind}: z {zz.shape}, H {hh.shape}, R {rr.shape}; allowed: "
+                f"z (m,), H (m, {DIM}), R (m, m) with 1 <= m <= 6"
+            )
+        if not (np.all(np.isfinite(zz)) and np.all(np.isfinite(hh)) and np.all(np.isfinite(rr))):
+            raise ValueError(f"Eskf.update_vector {kind}: non-finite z, H or R")
+        if not np.allclose(rr, rr.T) or np.any(np.linalg.eigvalsh(rr) <= 0.0):
+            raise ValueError(f"Eskf.update_vector {kind}: R must be symmetric positive definite")
+        if m not in self._gate:
+            self._gate[m] = chi2_threshold(self.config.gate_probability, m)
+        self.propagate_covariance()
+        return self._update(kind, zz, hh, rr)
+
     @staticmethod
     def _covariance(name: str, value: Any, n: int, *, psd_only: bool = False) -> FloatArray:
         m = np.asarray(value, dtype=np.float64)
@@ -654,7 +684,7 @@ class Eskf:
             return UpdateResult(kind, self.t, False, nis, "gate")
         self.P = p
         self._feedback(dx)
-        self.counts[kind] += 1
+        self.counts[kind] = self.counts.get(kind, 0) + 1
         return UpdateResult(kind, self.t, True, nis)
 
     def _update_reference(
@@ -682,7 +712,7 @@ class Eskf:
         p *= 0.5
         self.P = p
         self._feedback(k @ z)
-        self.counts[kind] += 1
+        self.counts[kind] = self.counts.get(kind, 0) + 1
         return UpdateResult(kind, self.t, True, nis)
 
     def _feedback(self, x: FloatArray) -> None:

@@ -33,6 +33,7 @@ from twin.core.calibration import CameraCalibration
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.extensions import INS_ONLY
 from twin.core.messages import Reading
+from twin.onboard.aids import NavAid
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
 from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
@@ -121,6 +122,8 @@ class Navigator:
         config: How it runs.
         method_params: The compass method's config fields (the scenario's
             ``[navigation.methods.<variant>]``); empty: its defaults.
+        aids: Navigation aids by the name of the sensor whose readings they fuse
+            (:mod:`twin.onboard.aids`; the scenario's ``[navigation.aids.<sensor>]``).
     """
 
     def __init__(
@@ -130,6 +133,7 @@ class Navigator:
         init: NavState,
         config: NavigatorConfig | None = None,
         method_params: Mapping[str, Any] | None = None,
+        aids: Mapping[str, NavAid] | None = None,
     ):
         self.variant = variant
         self.knowledge = knowledge
@@ -144,6 +148,13 @@ class Navigator:
                 "has none"
             )
         self.filter = Eskf(self.config.eskf, init)
+        self.aids: dict[str, NavAid] = dict(aids or {})
+        for sensor in self.aids:
+            if sensor in (knowledge.imu, knowledge.depth, knowledge.camera, knowledge.gravimeter):
+                raise ValueError(
+                    f"navigation aid for {sensor!r}: the filter fuses that sensor itself; an aid "
+                    "takes an extra sensor's readings"
+                )
         self._next_gravity_t = init.t + 1.0 / self.config.gravity_rate_hz
         self._next_compass_t = init.t
         self.events: list[CompassEvent] = []
@@ -179,6 +190,10 @@ class Navigator:
         if reading.sensor == k.gravimeter and self.matcher is not None:
             g = float(np.asarray(reading["gravity_mgal"]).reshape(-1)[0])
             self.matcher.update(f, reading.t, g)
+            return None
+        aid = self.aids.get(reading.sensor)
+        if aid is not None:
+            aid.update(self, reading)
             return None
         if reading.sensor == k.camera and self.method is not None:
             if reading.t < self._next_compass_t - 1e-9:

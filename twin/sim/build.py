@@ -20,6 +20,7 @@ from twin.core.earth import principal_radii
 from twin.core.frames import quat_to_dcm
 from twin.core.mission import PlannedMission
 from twin.onboard import compass
+from twin.onboard.aids import create_aid
 from twin.onboard.alignment import AlignmentError, gyrocompass_sigma
 from twin.onboard.control.autopilot import Autopilot, NavSource, PropellerMap
 from twin.onboard.control.guidance import Guidance
@@ -119,7 +120,7 @@ def check_navigation(scenario: Scenario) -> list[str]:
     An IMU that cannot find north at the scenario's latitude cannot gyrocompass.
     """
     nav = scenario.navigation
-    problems = _method_problems(nav)
+    problems = _method_problems(nav) + _aid_problems(nav)
     if not nav.variants or nav.alignment != "gyrocompass" or nav.tuning == "paper":
         return problems
     s = scenario.sensors
@@ -142,6 +143,17 @@ def _method_problems(nav: Navigation) -> list[str]:
             compass.create(name, **dict(params))
         except (ValueError, TypeError) as exc:
             problems.append(f"navigation.methods.{name}: {exc}")
+    return problems
+
+
+def _aid_problems(nav: Navigation) -> list[str]:
+    """Each configured navigation aid built as a run builds it; what that would raise."""
+    problems = []
+    for sensor, name, params in nav.aids:
+        try:
+            create_aid(name, **dict(params))
+        except (ValueError, TypeError) as exc:
+            problems.append(f"navigation.aids.{sensor}: {exc}")
     return problems
 
 
@@ -297,7 +309,15 @@ def _navigators(
         camera=cam.name if cam is not None else "polarimeter",
         gravity_map=stored,
     )
+    # Each variant its own aids (an aid may keep state), on the same readings.
     return {
-        v: Navigator(v, knowledge, init, cfg, method_params=nav.method_params(v))
+        v: Navigator(
+            v,
+            knowledge,
+            init,
+            cfg,
+            method_params=nav.method_params(v),
+            aids={s: create_aid(a, **dict(p)) for s, a, p in nav.aids},
+        )
         for v in nav.variants
     }
