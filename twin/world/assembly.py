@@ -255,34 +255,7 @@ def check_sensors(scenario: Scenario) -> list[str]:
             built[kind] = build()
         except ValueError as exc:
             problems.append(str(exc))
-    extras: dict[str, sensors.Sensor] = {}
-    for e in s.extra:
-        try:
-            extras[e.name] = extra_sensor(e)
-        except ValueError as exc:
-            problems.append(str(exc))
-    if extras:
-        # An extra sensor is started on the vehicle as a run starts it (its site, and whatever
-        # MJCF sensor its kind reads there), so that validate refuses what run would.
-        plant = build_plant(scenario, Current("none"))
-        sites = {plant.model.site(i).name for i in range(plant.model.nsite)}
-        rng = np.random.default_rng(0)
-        for e in s.extra:
-            sensor = extras.get(e.name)
-            if sensor is None:
-                continue
-            if sensor.site not in sites:
-                problems.append(
-                    f"sensors.extra.{e.name}: {'site' if e.site else 'default site'} "
-                    f"{sensor.site!r} is not on the vehicle; allowed: {sorted(sites)}"
-                )
-                continue
-            try:
-                sensor.reset(plant, rng)
-                sensor.sample(plant, rng)
-            except (KeyError, ValueError) as exc:
-                msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-                problems.append(f"sensors.extra.{e.name}: {msg}")
+    extras = _extra_sensors(scenario, problems)
     # The suite samples on the physics clock: a sensor faster than the physics would silently
     # sample at the physics rate while its noise model assumed its own (a wrong number).
     physics_hz = 1.0 / PlantConfig().timestep_s
@@ -313,6 +286,42 @@ def check_sensors(scenario: Scenario) -> list[str]:
             f"{', with overrides' if s.polarimeter_overrides else ''})"
         )
     return problems
+
+
+def _extra_sensors(scenario: Scenario, problems: list[str]) -> dict[str, sensors.Sensor]:
+    """The scenario's extra sensors that build, each started on the vehicle as a run starts it.
+
+    Its site, and whatever MJCF sensor its kind reads there, are tried on a plant, so that
+    ``validate`` refuses what ``run`` would; each problem is appended to ``problems``.
+    """
+    built: dict[str, sensors.Sensor] = {}
+    for e in scenario.sensors.extra:
+        try:
+            built[e.name] = extra_sensor(e)
+        except ValueError as exc:
+            problems.append(str(exc))
+    if not built:
+        return built
+    plant = build_plant(scenario, Current("none"))
+    sites = {plant.model.site(i).name for i in range(plant.model.nsite)}
+    rng = np.random.default_rng(0)
+    for e in scenario.sensors.extra:
+        sensor = built.get(e.name)
+        if sensor is None:
+            continue
+        if sensor.site not in sites:
+            problems.append(
+                f"sensors.extra.{e.name}: {'site' if e.site else 'default site'} "
+                f"{sensor.site!r} is not on the vehicle; allowed: {sorted(sites)}"
+            )
+            continue
+        try:
+            sensor.reset(plant, rng)
+            sensor.sample(plant, rng)
+        except (KeyError, ValueError) as exc:
+            msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+            problems.append(f"sensors.extra.{e.name}: {msg}")
+    return built
 
 
 def build_suite(scenario: Scenario, plant: Plant, seed: np.random.SeedSequence) -> SensorSuite:
