@@ -84,7 +84,7 @@ SALINITY_PSU = Range(0.0, 42.0)
 UNIT_INTERVAL = Range(0.0, 1.0)
 DEPOLARIZATION_RATIO = Range(0.0, 0.5, hi_open=True)
 # A water's absorption and K_d, and its scattering (m⁻¹ at 500 nm): Jerlov's types span
-# 0.026-0.99; 100 m⁻¹ is a sediment plume's order (sensors.polarimeter.optics.water.WaterBody).
+# 0.026-0.99; 100 m⁻¹ is a sediment plume's order (sensors.polarimeter.optics.water_body.WaterBody).
 ATTENUATION_PER_M = Range(0.0, 100.0, lo_open=True)
 SCATTERING_PER_M = Range(0.0, 100.0)
 CURRENT_SPEED_MPS = Range(0.0, 3.0)

@@ -207,12 +207,12 @@ SCENARIO_CHECKS = ExtensionPoint(
     },
 )
 
-#: Water bodies (``sensors.polarimeter.optics.water``): a name → its inherent optical properties
-#: at 500 nm, a ``WaterBody`` (absorption, scattering, K_d and where they come from). Built in:
-#: Jerlov's types; a package adds a measured water of its own, which a scenario names in
-#: ``optics.jerlov_type`` (the light field's table for it is computed on first use and cached).
+#: Water bodies (``sensors.polarimeter.optics.water_body``): a name → its inherent optical
+#: properties at 500 nm, a ``WaterBody`` (absorption, scattering, K_d and where they come from).
+#: Built in: Jerlov's types; a package adds a measured water of its own, which a scenario names in
+#: ``water.jerlov_type`` (the light field's table for it is computed on first use and cached).
 WATER_BODIES = ExtensionPoint(
     "water body",
     "auv_twin.water_bodies",
-    {t: f"sensors.polarimeter.optics.water:JERLOV_500NM.{t}" for t in JERLOV_TYPES},
+    {t: f"sensors.polarimeter.optics.water_body:JERLOV_500NM.{t}" for t in JERLOV_TYPES},
 )

@@ -15,7 +15,7 @@ import numpy as np
 import sensors
 from scenarios.schema import ExtraSensor, Hardware, Scenario
 from sensors.polarimeter.optics.sky import SkySpec
-from sensors.polarimeter.optics.water import WaterBody
+from sensors.polarimeter.optics.water_body import WaterBody
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.unit.hardware import (
     CalibrationUncertainty,
