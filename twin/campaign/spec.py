@@ -57,6 +57,8 @@ from scenarios import ScenarioError
 from scenarios.ranges import SEED_MAX
 from scenarios.schema import Scenario
 from sensors.polarimeter.optics.rt.table import MODEL_VERSION as LIGHT_MODEL_VERSION
+from twin.campaign.paths import parse_path
+from twin.campaign.paths import set_path as set_path
 from twin.campaign.results import param_value
 from twin.campaign.trials import SCENARIO, StudyTrial, load_trial
 
@@ -67,7 +69,6 @@ _TOP_KEYS = {
     "sweep", "random_seed", "timeseries", "keep_recordings", "worst_by", "trial",
 }  # fmt: skip
 _NAME = re.compile(r"[a-z0-9_]{1,64}")
-_PATH_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[(?:\d+|\*)\])*)")
 
 
 class CampaignError(ValueError):
@@ -150,59 +151,6 @@ class CampaignSpec:
 
     def __len__(self) -> int:
         return len(self.runs)
-
-
-# ---- dotted paths ---------------------------------------------------------------------------
-def _parse_path(path: str) -> list[tuple[str, list[str]]] | None:
-    parts = []
-    for chunk in path.split("."):
-        m = _PATH_PART.fullmatch(chunk)
-        if m is None:
-            return None
-        parts.append((m.group(1), re.findall(r"\[(\d+|\*)\]", m.group(2))))
-    return parts
-
-
-def set_path(data: dict[str, Any], path: str, value: Any) -> None:
-    """Set ``value`` at a dotted path (``a.b[0].c``, ``legs[*].depth_m``) in a scenario dict.
-
-    Raises:
-        KeyError: The path does not fit the scenario (tables and arrays must exist; the last
-            field may be new, so that defaults left out of a file can be set).
-    """
-    parts = _parse_path(path)
-    if parts is None:
-        raise KeyError(f"{path!r} is not a dotted path (a.b, a.b[0], a.b[*])")
-    _set(data, parts, value, path)
-
-
-def _set(node: Any, parts: list[tuple[str, list[str]]], value: Any, path: str) -> None:
-    (key, idx), rest = parts[0], parts[1:]
-    if not isinstance(node, dict):
-        raise KeyError(f"{path!r}: {key!r} is inside a value, not a table")
-    if not idx and not rest:
-        node[key] = copy.deepcopy(value)
-        return
-    if key not in node:
-        raise KeyError(f"{path!r}: no field {key!r} in the scenario")
-    _descend(node, key, idx, rest, value, path)
-
-
-def _descend(parent: Any, key: Any, idx: list[str], rest: list, value: Any, path: str) -> None:
-    if not idx:
-        _set(parent[key], rest, value, path)
-        return
-    arr = parent[key]
-    if not isinstance(arr, list):
-        raise KeyError(f"{path!r}: {key!r} is not an array")
-    ks = range(len(arr)) if idx[0] == "*" else [int(idx[0])]
-    for k in ks:
-        if k >= len(arr):
-            raise KeyError(f"{path!r}: index {k} out of range ({len(arr)} items)")
-        if len(idx) == 1 and not rest:
-            arr[k] = copy.deepcopy(value)
-        else:
-            _descend(arr, k, idx[1:], rest, value, path)
 
 
 # ---- loading --------------------------------------------------------------------------------
@@ -419,7 +367,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
         if not (isinstance(paths, list) and paths and all(isinstance(x, str) for x in paths)):
             errs.append(f"sweep[{i}].path: {_show(p)}; allowed: a dotted path or a list of them")
             continue
-        bad = [x for x in paths if _parse_path(x) is None]
+        bad = [x for x in paths if parse_path(x) is None]
         if bad:
             errs.append(f"sweep[{i}].path: {bad} is not a dotted path (a.b, a.b[0], a.b[*])")
             continue
