@@ -12,19 +12,9 @@ import dataclasses
 from typing import Any
 
 from sensors.base import Sensor, SensorSpec
-from twin.core.extensions import SENSORS, ExtensionError
+from twin.core.extensions import SENSORS, class_entry
 
-
-def _check_sensor(name: str, obj: object) -> None:
-    if not (isinstance(obj, type) and issubclass(obj, Sensor)):
-        raise ExtensionError(
-            f"sensor {name!r} is {obj!r}; expected a subclass of sensors.base.Sensor"
-        )
-    if obj.kind != name:
-        raise ExtensionError(
-            f"sensor {name!r} is {obj.__name__}, whose kind is {obj.kind!r}; the entry's name "
-            "must be the class's kind"
-        )
+_check_sensor = class_entry(Sensor, "kind")
 
 
 def register(cls: type[Sensor]) -> type[Sensor]:

@@ -134,6 +134,26 @@ class ExtensionPoint:
         return obj
 
 
+def class_entry(base: type, key: str) -> Callable[[str, Any], None]:
+    """A ``check`` for :meth:`ExtensionPoint.load`: a subclass of ``base`` named by its entry.
+
+    The class's ``key`` attribute must be the entry's name (one declaration: the registry's name
+    and the class's agree).
+    """
+
+    def check(name: str, obj: Any) -> None:
+        what = f"{base.__module__}.{base.__qualname__}"
+        if not (isinstance(obj, type) and issubclass(obj, base)):
+            raise ExtensionError(f"{name!r} is {obj!r}; expected a subclass of {what}")
+        if getattr(obj, key) != name:
+            raise ExtensionError(
+                f"{name!r} is {obj.__name__}, whose {key} is {getattr(obj, key)!r}; the entry's "
+                f"name must be the class's {key}"
+            )
+
+    return check
+
+
 #: The navigation variant without a compass: strapdown INS aided by gravity and depth only. Every
 #: other variant is a compass method's name.
 INS_ONLY = "ins"

@@ -25,7 +25,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from twin.core.arrays import Float64Array as FloatArray
-from twin.core.extensions import NAV_AIDS, ExtensionError
+from twin.core.extensions import NAV_AIDS, class_entry
 from twin.core.messages import Reading
 from twin.onboard.eskf import Eskf, NavEstimate, UpdateResult
 from twin.onboard.eskf_dynamics import DIM, I_H, I_LAT, I_LON
@@ -86,21 +86,9 @@ def vertical_row() -> FloatArray:
     return h
 
 
-def _check_aid(name: str, obj: object) -> None:
-    if not (isinstance(obj, type) and issubclass(obj, NavAid)):
-        raise ExtensionError(
-            f"navigation aid {name!r} is {obj!r}; expected a subclass of twin.onboard.aids.NavAid"
-        )
-    if obj.name != name:
-        raise ExtensionError(
-            f"navigation aid {name!r} is {obj.__name__}, whose name is {obj.name!r}; the entry's "
-            "name must be the class's"
-        )
-
-
 def create_aid(name: str, **params: Any) -> NavAid:
     """A configured aid by name; errors name the allowed aids or the bad parameter."""
-    cls = NAV_AIDS.load(name, _check_aid)
+    cls = NAV_AIDS.load(name, class_entry(NavAid, "name"))
     try:
         return cls(**params)
     except TypeError as exc:  # an unknown keyword
