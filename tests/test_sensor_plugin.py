@@ -30,6 +30,7 @@ from sensors.registry import sensor_class
 from twin.app.cli import main
 from twin.app.run import run_scenario
 from twin.core.extensions import NAV_AIDS, SENSORS, ExtensionError
+from twin.core.messages import Reading
 from twin.onboard.aids import create_aid
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -157,6 +158,10 @@ def test_the_example_aid_is_found_and_checks_its_parameters() -> None:
         create_aid("usbl_position", colour=1)
     with pytest.raises(ExtensionError, match=r"navigation aid: 'sonar' is unknown; allowed: \["):
         create_aid("sonar")
+    # A dropped fix (NaN) is skipped before the filter is touched.
+    nan = Reading("usbl", 1.0, 1.5, {"position_m": np.array([np.nan, 0.0, -10.0]),
+                                     "slant_range_m": np.asarray(10.0)})  # fmt: skip
+    assert aid.update(None, nan) is None  # type: ignore[arg-type]
 
 
 def test_aids_are_checked_like_the_rest_of_the_scenario(tmp_path: Path, capsys) -> None:

@@ -61,7 +61,12 @@ class NavAid(abc.ABC):
 
     @abc.abstractmethod
     def update(self, nav: AidContext, reading: Reading) -> UpdateResult | None:
-        """Update ``nav.filter`` with ``reading``; None when the reading is not used."""
+        """Update ``nav.filter`` with ``reading``; None when the reading is not used.
+
+        A reading the aid cannot use (a non-finite value: a dropped fix) is skipped with None;
+        :meth:`~twin.onboard.eskf.Eskf.update_vector` refuses non-finite numbers with a
+        ``ValueError``, which stops the run.
+        """
 
 
 def horizontal_position_rows(nav: AidContext) -> tuple[FloatArray, FloatArray]:

@@ -44,6 +44,8 @@ class UsblPositionAid(NavAid):
     def update(self, nav: AidContext, reading: Reading) -> UpdateResult | None:
         fix = np.asarray(reading["position_m"], dtype=np.float64).reshape(3)
         slant = float(np.asarray(reading["slant_range_m"]))
+        if not (np.all(np.isfinite(fix)) and np.isfinite(slant)):
+            return None  # a dropped fix (NaN) is not fused
         predicted, h = horizontal_position_rows(nav)
         # The fix is of the ping's instant: move the prediction back by the reading's age.
         age = nav.filter.t - reading.t
