@@ -37,7 +37,7 @@ from twin.campaign.snell_turntable import TILTS_DEG
 from twin.campaign.stats import bootstrap_ci
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext, CompassFix, create
-from twin.onboard.compass.moi import Liang2020Config, estimate_axis
+from twin.onboard.compass.moi_axis import Liang2020Config, estimate_axis
 from twin.record import provenance as pv
 
 UTC0 = dt.datetime(2021, 7, 31, 4, tzinfo=dt.UTC)

@@ -3,7 +3,7 @@
 One trial: a random solar azimuth at solar elevation ``elevation_deg``, the ideal AoP image of the
 paper's hypothetical imager (Table 1: level camera at the zenith, pinhole f = 8 mm, 3.45 µm,
 2048 columns × 2448 rows, DOP_max = 1, orthographic E-vector projection), the ``case``'s noise,
-then each of the three axis methods (MOI, PATZ, HT: ``twin.onboard.compass.moi.estimate_axis``)
+then each of the three axis methods (MOI, PATZ, HT: ``twin.onboard.compass.moi_axis.estimate_axis``)
 on the same image. The paper's 2000 trials per elevation are 2000 seeds of this trial
 (scenarios/campaigns/moi_noise.toml), the study's one home (its report:
 validation/results/campaigns/moi_noise/report.md).
@@ -41,7 +41,7 @@ import numpy as np
 from sensors.polarimeter.unit.calibration import calibration_from_spec
 from sensors.polarimeter.unit.fisheye import preset
 from twin.campaign.trials import StudyTrial
-from twin.onboard.compass.moi import _geometry, estimate_axis
+from twin.onboard.compass.moi_axis import _geometry, estimate_axis
 
 METHODS = ("moi", "patz", "ht")
 CASES = ("ideal", "gaussian", "crosstalk")
