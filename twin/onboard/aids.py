@@ -19,6 +19,7 @@ never the truth. Helpers for the common case, a position fix: :func:`horizontal_
 from __future__ import annotations
 
 import abc
+import inspect
 import math
 from typing import Any, ClassVar, Protocol
 
@@ -94,10 +95,11 @@ def vertical_row() -> FloatArray:
 def create_aid(name: str, **params: Any) -> NavAid:
     """A configured aid by name; errors name the allowed aids or the bad parameter."""
     cls = NAV_AIDS.load(name, class_entry(NavAid, "name"))
-    try:
-        return cls(**params)
-    except TypeError as exc:  # an unknown keyword
-        raise ValueError(f"{exc}".replace("__init__()", cls.__name__)) from None
+    allowed = [p for p in inspect.signature(cls).parameters if p not in ("args", "kwargs")]
+    unknown = sorted(set(params) - set(allowed))
+    if unknown:
+        raise ValueError(f"{unknown[0]}: not a parameter of aid {name!r}; allowed: {allowed}")
+    return cls(**params)
 
 
 def finite(name: str, value: Any, lo: float = 0.0, *, open_lo: bool = True) -> float:
