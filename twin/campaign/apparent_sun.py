@@ -35,7 +35,7 @@ import numpy as np
 
 import sensors
 from sensors.polarimeter.render import OpticsConfig
-from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem
+from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem, wrap180
 from twin.core.extensions import COMPASS_METHODS, WATER_BODIES
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
@@ -45,8 +45,8 @@ PRESETS = ("phx050s_p_bin4", "phx050s_p")
 #: The sun's elevation range (the LIG paper's trials ran at 20–70°) and the tilts' half range.
 ELEVATION_RANGE_DEG = (20.0, 70.0)
 TILT_DEG = 5.0
-#: The LIG paper's sea-trial site and day (hu2024 §4.3), for the context's ephemeris fields
-#: only: the sun itself is the trial's.
+#: The LIG paper's static-test site and day (Qingdao, 2021-07-31: hu2024 §4.2), for the
+#: context's ephemeris fields only: the sun itself is the trial's.
 LATITUDE_DEG, LONGITUDE_DEG = 36.175, 120.482
 UTC = dt.datetime(2021, 7, 31, 4, tzinfo=dt.UTC)
 
@@ -69,10 +69,6 @@ def check(p: Mapping[str, Any]) -> list[str]:
     if not isinstance(p.get("auto_exposure"), bool):
         errs.append(f"auto_exposure: {p.get('auto_exposure')!r}; allowed: true or false")
     return errs + names_problem(p, "methods", COMPASS_METHODS.names())
-
-
-def _wrap180(x: float) -> float:
-    return (x + 180.0) % 360.0 - 180.0
 
 
 def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
@@ -110,7 +106,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             e = np.asarray(fix.sun_h, dtype=float)
             daz = math.degrees(math.atan2(e[0], e[1]) - math.atan2(s_h[0], s_h[1]))
             dzen = math.degrees(math.acos(float(np.clip(e[2], -1.0, 1.0)))) - zenith_true
-            out["error_deg"] = abs(_wrap180(daz))
+            out["error_deg"] = abs(wrap180(daz))
             out["zenith_error_deg"] = abs(dzen)
             out["zenith_bias_deg"] = dzen
         else:

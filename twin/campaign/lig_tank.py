@@ -33,7 +33,7 @@ from sensors.polarimeter.optics.water import jerlov_water
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from sensors.polarimeter.unit.hardware import HardwareErrors
-from twin.campaign.trials import StudyTrial
+from twin.campaign.trials import StudyTrial, wrap180
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass import create
@@ -116,7 +116,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             if not fix.ok or fix.heading_deg is None:
                 no_fix[name] += 1
                 continue
-            err[name]["azimuth"].append(abs((fix.heading_deg - heading0 + 180.0) % 360.0 - 180.0))
+            err[name]["azimuth"].append(abs(wrap180(fix.heading_deg - heading0)))
             z_fix = math.degrees(math.acos(max(-1.0, min(1.0, float(fix.sun_body[2])))))
             err[name]["zenith"].append(abs(z_fix - math.degrees(math.acos(float(true_body[2])))))
     mean = lambda x: float(np.mean(x)) if x else math.nan  # noqa: E731

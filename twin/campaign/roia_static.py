@@ -39,7 +39,7 @@ from scenarios.ranges import BEAUFORT_MPS
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from sensors.polarimeter.unit.hardware import HardwareErrors
-from twin.campaign.trials import StudyTrial
+from twin.campaign.trials import StudyTrial, wrap180
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
@@ -138,7 +138,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             if not fix.ok or fix.heading_deg is None:
                 no_fix[name] += 1
                 continue
-            errs[name].append((fix.heading_deg - heading0 + 180.0) % 360.0 - 180.0)
+            errs[name].append(wrap180(fix.heading_deg - heading0))
     out = {}
     for name in methods:
         e = np.asarray(errs[name])

@@ -34,7 +34,7 @@ import numpy as np
 import sensors
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.render import OpticsConfig
-from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem
+from twin.campaign.trials import StudyTrial, choice_problem, names_problem, number_problem, wrap180
 from twin.core.extensions import WATER_BODIES
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
@@ -79,10 +79,6 @@ def check(p: Mapping[str, Any]) -> list[str]:
     return errs + names_problem(p, "methods", list(METHODS))
 
 
-def _wrap180(x: float) -> float:
-    return (x + 180.0) % 360.0 - 180.0
-
-
 def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     """One frame, each method on it: roll, pitch (Snell) and heading errors (°)."""
     rng = np.random.default_rng(seed)
@@ -119,7 +115,7 @@ def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
             if fix.roll_rad is not None and fix.pitch_rad is not None:
                 out["roll_error_deg"] = abs(math.degrees(fix.roll_rad) - roll)
                 out["pitch_error_deg"] = abs(math.degrees(fix.pitch_rad) - pitch)
-            out["error_deg"] = abs(_wrap180(fix.heading_deg - heading))
+            out["error_deg"] = abs(wrap180(fix.heading_deg - heading))
         else:
             out["reason"] = str(fix.reason)
         methods[name] = out

@@ -52,7 +52,7 @@ from scenarios.ranges import BEAUFORT_MPS
 from sensors.polarimeter.render import OpticsConfig
 from sensors.polarimeter.tank import Tank
 from sensors.polarimeter.unit.hardware import HardwareErrors
-from twin.campaign.trials import StudyTrial
+from twin.campaign.trials import StudyTrial, wrap180
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.frames import euler_to_dcm
 from twin.onboard.compass.base import CompassContext
@@ -162,10 +162,6 @@ def check(p: Mapping[str, Any]) -> list[str]:
     return errs
 
 
-def _wrap180(x: float) -> float:
-    return (x + 180.0) % 360.0 - 180.0
-
-
 def run(p: Mapping[str, Any], seed: int) -> dict[str, Any]:
     p = _resolved(p)
     rng = np.random.default_rng(seed)
@@ -238,18 +234,16 @@ def _session(rows: list[tuple[float, float, Any]], heading0: float) -> dict[str,
             continue
         roll_e.append(abs(math.degrees(fix.roll_rad) - r))
         pitch_e.append(abs(math.degrees(fix.pitch_rad) - pt))
-        yaw_truth_e.append(abs(_wrap180(fix.heading_deg - heading0)))
+        yaw_truth_e.append(abs(wrap180(fix.heading_deg - heading0)))
         if level.ok:
-            yaw_e.append(abs(_wrap180(fix.heading_deg - level.heading_deg)))
+            yaw_e.append(abs(wrap180(fix.heading_deg - level.heading_deg)))
     mean = lambda x: float(np.mean(x)) if x else math.nan  # noqa: E731
     return {
         "roll_mae_deg": mean(roll_e),
         "pitch_mae_deg": mean(pitch_e),
         "yaw_mae_deg": mean(yaw_e),
         "yaw_truth_mae_deg": mean(yaw_truth_e),
-        "level_yaw_error_deg": abs(_wrap180(level.heading_deg - heading0))
-        if level.ok
-        else math.nan,
+        "level_yaw_error_deg": abs(wrap180(level.heading_deg - heading0)) if level.ok else math.nan,
         "no_fix": no_fix + (0 if level.ok else 1),
     }
 

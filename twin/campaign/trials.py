@@ -79,6 +79,11 @@ def _as_trial(name: str, obj: Any) -> StudyTrial:
     raise ValueError(f"{name!r} is not a StudyTrial or a function")
 
 
+def wrap180(x: float) -> float:
+    """An angle difference in degrees wrapped to [−180, 180)."""
+    return (x + 180.0) % 360.0 - 180.0
+
+
 # ---- a study's parameter checks (one line per problem: the parameter, the value, what is allowed)
 
 
