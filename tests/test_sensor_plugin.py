@@ -223,3 +223,17 @@ def test_the_filter_s_vector_update_refuses_what_it_cannot_use() -> None:
         f.update_vector("fix", np.array([np.nan, 0.0]), h, r)
     with pytest.raises(ValueError, match="symmetric positive definite"):
         f.update_vector("fix", np.zeros(2), h, np.diag([0.25, -1.0]))
+
+
+def test_an_aid_tied_to_a_sensor_without_its_channels_is_refused_by_validate(tmp_path: Path):
+    # The USBL aid reads position_m and slant_range_m; a depth gauge gives neither. run would
+    # fail at the first reading, so validate refuses it (exit 2, one line naming the field).
+    text = TRIAL.read_text().replace('kind = "usbl"\npreset = "generic"', 'kind = "depth"')
+    text = text.replace("range_fraction = 0.02   # a worse unit", "# range_fraction: a worse unit")
+    bad = tmp_path / "depth_as_usbl.toml"
+    bad.write_text(text)
+    with pytest.raises(ScenarioError) as err:
+        scenarios.load(bad)
+    (line,) = [e for e in err.value.errors if e.startswith("navigation.aids.usbl")]
+    assert "aid 'usbl_position' reads ['position_m', 'slant_range_m']" in line
+    assert "sensor 'usbl' (kind 'depth') does not give" in line

@@ -59,6 +59,8 @@ class NavAid(abc.ABC):
     """
 
     name: ClassVar[str] = ""
+    #: The reading's channels it reads: ``validate`` checks that the tied sensor gives them.
+    channels: ClassVar[tuple[str, ...]] = ()
 
     @abc.abstractmethod
     def update(self, nav: AidContext, reading: Reading) -> UpdateResult | None:

@@ -38,6 +38,7 @@ from twin.world.assembly import (
     build_current,
     build_plant,
     build_suite,
+    extra_sensor,
     make_sensor,
     optics_config,
 )
@@ -120,7 +121,7 @@ def check_navigation(scenario: Scenario) -> list[str]:
     An IMU that cannot find north at the scenario's latitude cannot gyrocompass.
     """
     nav = scenario.navigation
-    problems = _method_problems(nav) + _aid_problems(nav)
+    problems = _method_problems(nav) + _aid_problems(scenario)
     if not nav.variants or nav.alignment != "gyrocompass" or nav.tuning == "paper":
         return problems
     s = scenario.sensors
@@ -146,14 +147,32 @@ def _method_problems(nav: Navigation) -> list[str]:
     return problems
 
 
-def _aid_problems(nav: Navigation) -> list[str]:
-    """Each configured navigation aid built as a run builds it; what that would raise."""
+def _aid_problems(scenario: Scenario) -> list[str]:
+    """What a run would raise for each navigation aid: built, and fed the channels it reads.
+
+    Each aid is built with its parameters as a run builds it, and its sensor must give every
+    channel in the aid's ``channels``.
+    """
     problems = []
-    for sensor, name, params in nav.aids:
+    extras = {e.name: e for e in scenario.sensors.extra}
+    for sensor, name, params in scenario.navigation.aids:
         try:
-            create_aid(name, **dict(params))
+            aid = create_aid(name, **dict(params))
         except (ValueError, TypeError) as exc:
             problems.append(f"navigation.aids.{sensor}: {exc}")
+            continue
+        if sensor not in extras:
+            continue  # the loader reports an aid without its sensor
+        try:
+            given = extra_sensor(extras[sensor]).channel_specs()
+        except ValueError:
+            continue  # check_sensors reports the sensor itself
+        missing = [c for c in aid.channels if c not in given]
+        if missing:
+            problems.append(
+                f"navigation.aids.{sensor}: aid {name!r} reads {missing}, which sensor "
+                f"{sensor!r} (kind {extras[sensor].kind!r}) does not give; it gives {sorted(given)}"
+            )
     return problems
 
 

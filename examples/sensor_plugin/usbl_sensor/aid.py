@@ -32,6 +32,7 @@ class UsblPositionAid(NavAid):
     """
 
     name: ClassVar[str] = "usbl_position"
+    channels: ClassVar[tuple[str, ...]] = ("position_m", "slant_range_m")
 
     def __init__(self, sigma_floor_m: float = 0.1, range_fraction: float = 0.01):
         self.sigma_floor_m = finite("sigma_floor_m", sigma_floor_m, 0.0, open_lo=False)
