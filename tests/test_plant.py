@@ -26,17 +26,23 @@ def _zero_crossings(x: np.ndarray) -> np.ndarray:
     return np.nonzero(s[1:] * s[:-1] < 0)[0]
 
 
-def test_neutral_buoyancy_holds_depth_at_rest(plant: Plant) -> None:
+@pytest.mark.measures
+def test_neutral_buoyancy_holds_depth_at_rest(plant: Plant, record_property) -> None:
     plant.reset(position_n=(0.0, 0.0, -10.0))
     for _ in range(6000):  # 60 s
         plant.step(ActuatorCommand())
     tr = plant.truth()
+    record_property("rest_60s_depth_change_m", abs(tr.depth_m - 10.0))
+    record_property("rest_60s_horizontal_drift_m", float(np.linalg.norm(tr.position_n[:2])))
     assert abs(tr.depth_m - 10.0) < 1e-3
     assert np.linalg.norm(tr.position_n[:2]) < 1e-3
     assert abs(tr.roll_rad) < 1e-6 and abs(tr.pitch_rad) < 1e-6
 
 
-def test_released_at_a_tilt_it_rights_itself_at_the_implied_period(plant: Plant) -> None:
+@pytest.mark.measures
+def test_released_at_a_tilt_it_rights_itself_at_the_implied_period(
+    plant: Plant, record_property
+) -> None:
     p = plant.params
     plant.reset(position_n=(0.0, 0.0, -10.0), rpy_rad=(math.radians(30.0), 0.0, 0.0))
     roll = []
@@ -58,6 +64,8 @@ def test_released_at_a_tilt_it_rights_itself_at_the_implied_period(plant: Plant)
     a[2:, :2] = -np.linalg.solve(mass, np.array([[0.0, 0.0], [0.0, m * g * zg]]))
     a[2:, 2:] = -np.linalg.solve(mass, np.diag([d[1], d[3]]))
     expected = 2 * math.pi / np.abs(np.linalg.eigvals(a).imag).max()
+    record_property("righting_period_s", float(measured))
+    record_property("righting_period_model_s", float(expected))
     assert measured == pytest.approx(expected, rel=0.03)
     assert abs(roll[-1]) < math.radians(0.1)  # and it comes to rest upright
 
@@ -72,10 +80,13 @@ def test_steady_speed_where_thrust_equals_drag(plant: Plant, rpm: float) -> None
     assert plant.truth().speed_through_water_mps == pytest.approx(expected, rel=0.01)
 
 
-def test_top_speed_matches_remus100() -> None:
+@pytest.mark.measures
+def test_top_speed_matches_remus100(record_property) -> None:
     # REMUS 100: about 2.5 m/s at 1525 rpm (Allen et al. 2000; Fossen's remus100 docstring).
     plant = Plant(PlantConfig(water_density_kg_m3=1026.0))
-    assert plant.hydro.steady_speed_mps(1525 / 60) == pytest.approx(2.5, rel=0.05)
+    top = plant.hydro.steady_speed_mps(1525 / 60)
+    record_property("top_speed_1525rpm_mps", top)
+    assert top == pytest.approx(2.5, rel=0.05)
 
 
 def _fossen_reference(plant: Plant, rudder: float, n_rps: float, u0: float, t_end: float):
@@ -117,7 +128,10 @@ def _fossen_reference(plant: Plant, rudder: float, n_rps: float, u0: float, t_en
     return sol.t, sol.y
 
 
-def test_turning_circle_with_fixed_rudder_matches_an_independent_integration() -> None:
+@pytest.mark.measures
+def test_turning_circle_with_fixed_rudder_matches_an_independent_integration(
+    record_property,
+) -> None:
     plant = Plant(PlantConfig())
     rudder = math.radians(15.0)
     n = plant.hydro.rps_for_speed(1.5)
@@ -141,26 +155,39 @@ def test_turning_circle_with_fixed_rudder_matches_an_independent_integration() -
         plant.step(ActuatorCommand(rudder, 0.0, n))
     yaw_rate = np.array([*yaw_rate, 0.0])[: len(t_ref)]
     # Transient (added mass matters here) and steady state agree.
-    for t_check in (2.0, 5.0, 10.0, 60.0, 110.0):
+    checks = (2.0, 5.0, 10.0, 60.0, 110.0)
+    idx = [int(t / 0.5) for t in checks]
+    record_property(
+        "turn_1p5mps_yaw_rate_max_rel_diff",
+        float(np.max(np.abs(yaw_rate[idx] / r_ref[idx] - 1.0))),
+    )
+    for t_check in checks:
         i = int(t_check / 0.5)
         assert yaw_rate[i] == pytest.approx(r_ref[i], rel=0.02, abs=2e-4), t_check
     en = np.array(pos[120:])
     radius = np.linalg.norm(en - en.mean(axis=0), axis=1).mean()
     ne = ne_ref[120:]
     radius_ref = np.linalg.norm(ne - ne.mean(axis=0), axis=1).mean()
+    record_property("turn_1p5mps_radius_m", float(radius))
+    record_property("turn_1p5mps_radius_reference_m", float(radius_ref))
     assert radius == pytest.approx(radius_ref, rel=0.01)
     # Documented expectation: a 15 deg rudder turn at 1.5 m/s has a radius of ~11 vehicle lengths
     # in this model (17.9 m); see docs/physics.md.
     assert radius == pytest.approx(17.9, rel=0.03)
 
 
-def test_passive_vehicle_drifts_with_the_current() -> None:
+@pytest.mark.measures
+def test_passive_vehicle_drifts_with_the_current(record_property) -> None:
     current = Current("constant", speed_mps=0.3, toward_deg=90.0)  # flowing East
     plant = Plant(PlantConfig(), current)
     plant.reset(position_n=(0.0, 0.0, -10.0))  # at rest, heading North: beam-on to the current
     for _ in range(12000):
         plant.step(ActuatorCommand())
     tr = plant.truth()
+    record_property(
+        "current_drift_velocity_error_mps",
+        float(np.max(np.abs(tr.velocity_n[:2] - [0.3, 0.0]))),
+    )
     np.testing.assert_allclose(tr.velocity_n[:2], [0.3, 0.0], atol=0.01)
     assert tr.position_n[0] > 0.8 * 0.3 * 120.0
 
@@ -231,7 +258,8 @@ def test_with_pvs_modelling_choices_the_turn_and_heel_match_fossens_remus100() -
     assert m["turn_heel_deg"] == pytest.approx(PVS_TURN_HEEL_DEG, abs=0.2)
 
 
-def test_full_speed_turn_and_heel_of_the_twins_remus() -> None:
+@pytest.mark.measures
+def test_full_speed_turn_and_heel_of_the_twins_remus(record_property) -> None:
     # The settled values (docs/physics.md): the exact cross-flow integral turns tighter than PVS's
     # 21-strip sum (15 % less yaw damping), and the whole propeller torque heels the hull.
     m = _full_speed_turn(REMUS100)
@@ -245,6 +273,8 @@ def test_full_speed_turn_and_heel_of_the_twins_remus() -> None:
     _, q = hydro.propeller(n, hydro.steady_speed_mps(n))
     weight = REMUS100.mass_kg * Plant(PlantConfig(water_density_kg_m3=1026.0)).gravity_mps2
     expected = math.degrees(math.asin(q / (weight * REMUS100.cg_below_cb_m)))
+    record_property("heel_1525rpm_deg", m["straight_heel_deg"])
+    record_property("heel_1525rpm_closed_form_deg", expected)
     assert m["straight_heel_deg"] == pytest.approx(expected, rel=0.02)
 
 

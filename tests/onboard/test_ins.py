@@ -106,7 +106,8 @@ def test_ideal_imu_with_free_air_ins_sees_only_the_gravity_model_difference() ->
 # --- pyins oracle ----------------------------------------------------------------------------
 
 
-def test_mechanization_agrees_with_pyins_on_a_sine_velocity_trajectory() -> None:
+@pytest.mark.measures
+def test_mechanization_agrees_with_pyins_on_a_sine_velocity_trajectory(record_property) -> None:
     import pyins.sim as pyins_sim  # a declared test dependency (python-ins): fail, never skip
     import pyins.strapdown as pyins_strapdown
     import pyins.transform as pyins_transform
@@ -166,6 +167,15 @@ def test_mechanization_agrees_with_pyins_on_a_sine_velocity_trajectory() -> None
     # Same algorithm, same increments, same gravity: what is left is float rounding (and the
     # order of operations). 300 s of a manoeuvring vehicle (≈ 1 km) must agree to 1 mm,
     # 1e-6 m/s and 1e-9 rad.
+    record_property("ins_vs_pyins_300s_position_m", float(max(abs(north_m), abs(east_m))))
+    record_property("ins_vs_pyins_300s_height_m", float(abs(s.h_m - ref["alt"])))
+    record_property(
+        "ins_vs_pyins_300s_velocity_mps",
+        float(np.abs(s.v_enu - t @ ref[["VN", "VE", "VD"]].to_numpy(float)).max()),
+    )
+    record_property(
+        "ins_vs_pyins_300s_attitude_rad", float(np.abs(s.c_bn @ c_ref.T - np.eye(3)).max())
+    )
     assert abs(north_m) < 1e-3 and abs(east_m) < 1e-3
     assert abs(s.h_m - ref["alt"]) < 1e-3
     np.testing.assert_allclose(s.v_enu, t @ ref[["VN", "VE", "VD"]].to_numpy(float), atol=1e-6)

@@ -120,7 +120,8 @@ def test_interpolate_matches_superpixel_on_a_uniform_field_and_has_full_resoluti
 
 
 # --- agreement with polanalyser (test-only oracle) -----------------------------------------------
-def test_superpixel_equals_polanalyser_calcstokes_on_the_four_sub_images():
+@pytest.mark.measures
+def test_superpixel_equals_polanalyser_calcstokes_on_the_four_sub_images(record_property):
     import polanalyser as pa  # a declared test dependency: fail, never skip
 
     rng = np.random.default_rng(6)
@@ -129,6 +130,15 @@ def test_superpixel_equals_polanalyser_calcstokes_on_the_four_sub_images():
     # Our layout: (1,1)=0°, (0,1)=45°, (0,0)=90°, (1,0)=135°.
     subs = [raw[1::2, 1::2], raw[0::2, 1::2], raw[0::2, 0::2], raw[1::2, 0::2]]
     ref = pa.calcStokes(np.array(subs, float), np.deg2rad([0, 45, 90, 135]))
+    record_property(
+        "stokes_superpixel_vs_polanalyser_max_abs_dn",
+        float(
+            max(
+                np.abs(layer - ref[..., j]).max()
+                for j, layer in enumerate((img.s0, img.s1, img.s2))
+            )
+        ),
+    )
     for j, layer in enumerate((img.s0, img.s1, img.s2)):
         np.testing.assert_allclose(layer, ref[..., j], atol=1e-3)
     # polanalyser's AoLP is in [0, π): compare axes mod π.
@@ -140,7 +150,8 @@ def test_superpixel_equals_polanalyser_calcstokes_on_the_four_sub_images():
 
 
 @pytest.mark.parametrize("field", ["smooth", "random"])
-def test_interpolate_agrees_with_polanalyser_demosaicing(field):
+@pytest.mark.measures
+def test_interpolate_agrees_with_polanalyser_demosaicing(field, record_property):
     """Interior agreement within 1 DN: OpenCV's 16-bit Bayer bilinear rounds each interpolated
     channel to an integer (≤ ½ DN), S0 = ½ΣI and S1 = I0 − I90 then differ by ≤ 1 DN. The outer
     2 pixels differ: OpenCV's Bayer conversion fills its border differently (we mirror)."""
@@ -155,6 +166,15 @@ def test_interpolate_agrees_with_polanalyser_demosaicing(field):
     channels = pa.demosaicing(raw, pa.COLOR_PolarMono)  # [0°, 45°, 90°, 135°]
     ref = pa.calcStokes(np.array(channels, float), np.deg2rad([0, 45, 90, 135]))
     inner = (slice(2, -2), slice(2, -2))
+    record_property(
+        "stokes_demosaiced_vs_polanalyser_max_abs_dn",
+        float(
+            max(
+                np.abs(layer[inner] - ref[inner][..., j]).max()
+                for j, layer in enumerate((img.s0, img.s1, img.s2))
+            )
+        ),
+    )
     for j, layer in enumerate((img.s0, img.s1, img.s2)):
         assert np.abs(layer[inner] - ref[inner][..., j]).max() <= 1.0 + 1e-6
     if field == "smooth":

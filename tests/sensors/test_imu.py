@@ -242,7 +242,8 @@ def test_sample_before_reset_and_missing_mjcf_sensor_are_errors(world) -> None:
 # --- errors and their statistics -----------------------------------------------------------------
 
 
-def test_white_noise_std_matches_density_times_root_rate(world, collect) -> None:
+@pytest.mark.measures
+def test_white_noise_std_matches_density_times_root_rate(world, collect, record_property) -> None:
     """Fast statistical test: only the white noise switched on, per-axis accelerometer density."""
     lig = Imu.PRESETS["lig2024"]
     imu = registry.create(
@@ -257,6 +258,13 @@ def test_white_noise_std_matches_density_times_root_rate(world, collect) -> None
     data = collect(imu, world, rng, n)
     gyro_std = data["angular_rate"].std(axis=0)
     accel_std = data["specific_force"].std(axis=0)
+    spec = np.concatenate(
+        [np.broadcast_to(lig.gyro_noise_density, 3), np.asarray(lig.accel_noise_density)]
+    )
+    record_property(
+        "imu_white_std_vs_spec_max_rel",
+        float(np.abs(np.concatenate([gyro_std, accel_std]) / (spec * 10.0) - 1.0).max()),
+    )
     np.testing.assert_allclose(gyro_std, lig.gyro_noise_density * 10.0, rtol=0.03)
     np.testing.assert_allclose(accel_std, np.array(lig.accel_noise_density) * 10.0, rtol=0.03)
     # navigation.md §2.1 discrete σ at 100 Hz: 4.36e-4 rad/s, 4.41e-3 and 6.37e-3 m/s².
@@ -264,7 +272,8 @@ def test_white_noise_std_matches_density_times_root_rate(world, collect) -> None
     assert accel_std[2] == pytest.approx(6.37e-3, rel=0.03)
 
 
-def test_allan_deviation_at_1s_gives_the_arw_and_vrw(world, collect) -> None:
+@pytest.mark.measures
+def test_allan_deviation_at_1s_gives_the_arw_and_vrw(world, collect, record_property) -> None:
     """The full lig2024 model: σ_A(1 s) = N (IEEE-952 read-off, navigation.md §1.6), within 10 %."""
     imu = registry.create("imu", "lig2024")
     rng = np.random.default_rng(7)
@@ -281,6 +290,14 @@ def test_allan_deviation_at_1s_gives_the_arw_and_vrw(world, collect) -> None:
         ]
         for i in range(3)
     ]
+    rel = np.concatenate(
+        [
+            np.asarray(arw) / lig.gyro_noise_density - 1.0,
+            np.asarray(vrw) / np.asarray(lig.accel_noise_density) - 1.0,
+        ]
+    )
+    record_property("imu_allan_1s_vs_spec_min_abs_rel", float(np.abs(rel).min()))
+    record_property("imu_allan_1s_vs_spec_max_abs_rel", float(np.abs(rel).max()))
     np.testing.assert_allclose(arw, lig.gyro_noise_density, rtol=0.10)
     np.testing.assert_allclose(vrw, lig.accel_noise_density, rtol=0.10)
 

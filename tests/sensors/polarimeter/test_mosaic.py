@@ -224,7 +224,8 @@ def test_orientation_error_is_a_fixed_per_pixel_pattern_of_the_stated_sigma():
 
 # --- noise --------------------------------------------------------------------------------------
 @pytest.mark.parametrize(("s0_e", "dop", "aop"), [(4000.0, 0.3, 0.3), (10_000.0, 0.2, -1.0)])
-def test_aop_noise_matches_one_over_two_p_sqrt_s0(s0_e, dop, aop):
+@pytest.mark.measures
+def test_aop_noise_matches_one_over_two_p_sqrt_s0(s0_e, dop, aop, record_property):
     """σ_AoP ≈ 1/(2P√S0), S0 in electrons (optics.md §3.3), over 128×128 super-pixels.
 
     At these counts read noise (2σ_r² = 17 e⁻²) and quantization (K²/6 = 1.3 e⁻²) add < 0.5 %
@@ -240,8 +241,10 @@ def test_aop_noise_matches_one_over_two_p_sqrt_s0(s0_e, dop, aop):
     k, sr, d = spec.conversion_gain_e_per_dn, spec.read_noise_e, spec.diattenuation
     assert img.s0.mean() * k == pytest.approx(s0_e, rel=2e-3)
     sigma = axis_error(img.aop, aop).std()
-    assert sigma == pytest.approx(1.0 / (2 * dop * math.sqrt(s0_e)), rel=0.10)
+    record_property("aop_noise_vs_bare_law_rel", float(sigma * 2 * dop * math.sqrt(s0_e) - 1.0))
     full = math.sqrt(s0_e + 2 * sr**2 + k**2 / 6) / (2 * d * dop * s0_e)
+    record_property("aop_noise_vs_full_law_rel", float(sigma / full - 1.0))
+    assert sigma == pytest.approx(1.0 / (2 * dop * math.sqrt(s0_e)), rel=0.10)
     assert sigma == pytest.approx(full, rel=0.03)
 
 

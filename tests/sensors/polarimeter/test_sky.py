@@ -110,8 +110,14 @@ def _moi_closed_form(
         (40.0, 200.0, 30.0, 8.0, -5.0),  # tilted: eq. 17 in full
     ],
 )
+@pytest.mark.measures
 def test_rayleigh_matches_moi_closed_forms(
-    sun_elev_deg: float, sun_az_deg: float, yaw_deg: float, pitch_deg: float, roll_deg: float
+    sun_elev_deg: float,
+    sun_az_deg: float,
+    yaw_deg: float,
+    pitch_deg: float,
+    roll_deg: float,
+    record_property,
 ) -> None:
     cam = Camera(preset("moi_pinhole"), dtype=np.float64)
     m_y, m_x = np.meshgrid(
@@ -137,8 +143,12 @@ def test_rayleigh_matches_moi_closed_forms(
     with np.errstate(divide="ignore", invalid="ignore"):
         aop = np.arctan(e_img[..., 0] / e_img[..., 1])
 
-    np.testing.assert_allclose(dop, dop_ref, atol=1e-9)
     ok = gamma > 1e-3  # the AoP is undefined at the sun itself
+    record_property("sky_rayleigh_vs_moi_dop_max_abs", float(np.abs(dop - dop_ref).max()))
+    record_property(
+        "sky_rayleigh_vs_moi_aop_max_abs_rad", float(np.abs(_wrap_half_pi(aop - aop_ref)[ok]).max())
+    )
+    np.testing.assert_allclose(dop, dop_ref, atol=1e-9)
     assert ok.mean() > 0.99
     assert np.abs(_wrap_half_pi(aop - aop_ref)[ok]).max() < 1e-6
 
@@ -179,12 +189,16 @@ def test_rayleigh_fast_path_equals_stokes_module(sun: tuple[float, float]) -> No
 
 
 @pytest.mark.parametrize("sun", [(40.0, 70.0), (0.0, 0.0), (65.0, -100.0), (90.5, 10.0)])
-def test_berry_with_zero_delta_is_rayleigh(sun: tuple[float, float]) -> None:
+@pytest.mark.measures
+def test_berry_with_zero_delta_is_rayleigh(sun: tuple[float, float], record_property) -> None:
     s = _sun(*sun)
     p = np.vstack([_hemisphere(3000, seed=3), [[0, 0, 1.0]], [[0, 1, 0.0]]])
     common = {"cie_type": 7, "dop_max": 0.9, **NO_DISC}
     ray = sky_radiance(p, s, SkySpec(polarization="rayleigh", **common))
     berry = sky_radiance(p, s, SkySpec(polarization="berry", berry_delta_rad=0.0, **common))
+    record_property(
+        "sky_berry0_vs_rayleigh_max_abs", float(np.abs(berry.stokes - ray.stokes).max())
+    )
     np.testing.assert_allclose(berry.stokes, ray.stokes, atol=1e-9 * common["dop_max"])
 
 

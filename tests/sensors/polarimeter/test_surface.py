@@ -44,8 +44,12 @@ def _rot(axis: str, ang: float) -> np.ndarray:
         (35, 20, 450, 1.3459, 47.99),
     ],
 )
-def test_quan_fry_reproduces_the_verified_table(s, t, lam, n_ref, theta_c_deg):
+@pytest.mark.measures
+def test_quan_fry_reproduces_the_verified_table(s, t, lam, n_ref, theta_c_deg, record_property):
     n = sf.water_index(s, t, lam)
+    record_property(
+        f"snell_half_angle_deg[S={s}, {lam} nm]", math.degrees(sf.snell_window_half_angle(n))
+    )
     assert isinstance(n, float)
     assert n == pytest.approx(n_ref, abs=6e-5)
     assert math.degrees(sf.snell_window_half_angle(n)) == pytest.approx(theta_c_deg, abs=0.006)
