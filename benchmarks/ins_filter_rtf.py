@@ -24,6 +24,7 @@ from twin.core import earth
 from twin.core.frames import euler_to_dcm
 from twin.onboard.eskf import Eskf, EskfConfig
 from twin.onboard.ins import NavState, StrapdownIns
+from twin.record import provenance as pv
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MISSION_S = 600.0
@@ -106,6 +107,7 @@ def main() -> int:
         f"{platform.processor() or platform.machine()}, Python {sys.version.split()[0]}, 1 core "
         f"of {os.cpu_count()} (shared; 1-min load average {load:.1f} at the end)"
     )
+    prov = pv.provenance()
     md = [
         "# INS + ESKF real-time factor",
         "",
@@ -129,6 +131,8 @@ def main() -> int:
         f"state's σ after {MISSION_S:.0f} s: {cov_err:.1e} ({cov_err_state}); attitude "
         f"{cov_err_att:.1e}. The run loop's 10 Hz updates propagate every 0.1 s anyway.",
         "",
+        *("- " + x for x in pv.describe(prov)),
+        "",
     ]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "ins_filter_rtf.md").write_text("\n".join(md))
@@ -136,6 +140,7 @@ def main() -> int:
         json.dumps(
             {
                 "env": env,
+                "provenance": prov,
                 **best,
                 "ins_alone_us_per_imu_step": ins_alone["us_per_imu_step"],
                 "ins_alone_rtf": ins_alone["rtf"],

@@ -21,6 +21,7 @@ from pathlib import Path
 import scenarios
 from twin.app.run import run_scenario
 from twin.core.messages import ActuatorCommand
+from twin.record import provenance as pv
 from twin.sim.build import build_simulation
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -75,6 +76,7 @@ def main() -> int:
     plant = plant_only()
     full = full_run()
     env = f"{platform.processor() or platform.machine()}, Python {sys.version.split()[0]}, 1 core"
+    prov = pv.provenance()
     md = [
         "# Plant real-time factor (issue #2 benchmark)",
         "",
@@ -89,11 +91,14 @@ def main() -> int:
         f"{full['wall_s']:.2f} | {full['rtf']:.0f}x (recording {full['rrd_mb']:.1f} MB) |",
         "",
         "Target: >= 100x real time for the plant on one core.",
+        "",
+        *("- " + x for x in pv.describe(prov)),
     ]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "plant_rtf.md").write_text("\n".join(md) + "\n")
     (RESULTS / "plant_rtf.json").write_text(
-        json.dumps({"plant": plant, "full_run": full, "machine": env}, indent=2) + "\n"
+        json.dumps({"plant": plant, "full_run": full, "machine": env, "provenance": prov}, indent=2)
+        + "\n"
     )
     print("\n".join(md))
     return 0

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,3 +49,30 @@ def test_benchmarks_hold_speed_benchmarks_only() -> None:
         assert re.search(r"perf_counter|timeit|real[- ]time|runs/min|\bms\b", text), p.name
     specs = {p.stem for p in (ROOT / "scenarios" / "campaigns").glob("*.toml")}
     assert not specs & {p.stem for p in scripts}
+
+
+def test_the_validation_page_is_generated_from_the_results_on_disk() -> None:
+    # docs/validation.md quotes numbers only through validation/page.py, which reads them from
+    # the checked-in results: a hand edit, or a study rerun without regenerating, fails here.
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "validation" / "page.py"), "--check"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_every_number_the_validation_page_reads_from_the_suite_is_recorded_by_a_test() -> None:
+    # Each quantity page_claims.py asks checks.json for is one a `measures` test records, so that
+    # rerunning validation/checks.py refreshes it (a renamed quantity fails here, not silently).
+    claims = (ROOT / "validation" / "page_claims.py").read_text()
+    asked = set(
+        re.findall(r"(?:_one\(r, |_max_abs\(r, |\.measured\()[\"']([a-z0-9_]+)[\"']", claims)
+    )
+    assert len(asked) > 20
+    recorded = set()
+    for path in (ROOT / "tests").rglob("test_*.py"):
+        recorded |= set(re.findall(r"record_property\(\s*f?\"([a-z0-9_]+)", path.read_text()))
+    assert asked <= recorded, sorted(asked - recorded)
