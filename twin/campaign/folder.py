@@ -40,7 +40,7 @@ class FolderError(RuntimeError):
 
 def spec_parts(spec: CampaignSpec) -> dict[str, Any]:
     """The parts of a resolved spec that its fingerprint covers (each JSON-able)."""
-    from sensors.polarimeter.optics.rt.table import MODEL_VERSION
+    from sensors.polarimeter.optics.rt.grid import MODEL_VERSION
 
     return {
         "base": fingerprint(spec.base.to_dict()) if spec.base is not None else None,

@@ -56,7 +56,7 @@ import scenarios
 from scenarios import ScenarioError
 from scenarios.ranges import SEED_MAX
 from scenarios.schema import Scenario
-from sensors.polarimeter.optics.rt.table import MODEL_VERSION as LIGHT_MODEL_VERSION
+from sensors.polarimeter.optics.rt.grid import MODEL_VERSION as LIGHT_MODEL_VERSION
 from twin.campaign.paths import parse_path
 from twin.campaign.paths import set_path as set_path
 from twin.campaign.results import param_value
@@ -118,7 +118,7 @@ class RunSpec:
         """Hash of the resolved scenario, the seed and the light model's version.
 
         Independent of backend and order. The light model's version
-        (:data:`sensors.polarimeter.optics.rt.table.MODEL_VERSION`) is in it so that resuming into a
+        (:data:`sensors.polarimeter.optics.rt.grid.MODEL_VERSION`) is in it so that resuming into a
         folder of runs made with an older light field runs them again instead of reusing them.
         """
         blob = json.dumps(

@@ -94,7 +94,7 @@ def code_version() -> dict[str, Any]:
 
 @functools.lru_cache(maxsize=1)
 def _static() -> dict[str, Any]:
-    from sensors.polarimeter.optics.rt.table import MODEL_VERSION
+    from sensors.polarimeter.optics.rt.grid import MODEL_VERSION
 
     return {
         **code_version(),

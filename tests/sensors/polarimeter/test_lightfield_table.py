@@ -12,6 +12,7 @@ from sensors.polarimeter.optics import surface as sf
 from sensors.polarimeter.optics import water as wa
 from sensors.polarimeter.optics.rt import reference as rf
 from sensors.polarimeter.optics.rt import sky_table as skt
+from sensors.polarimeter.optics.rt import store
 from sensors.polarimeter.optics.rt import table as tb
 from sensors.polarimeter.optics.sky import SkySpec
 
@@ -247,7 +248,7 @@ def test_workers_caching_the_same_table_at_once_do_not_collide(tmp_path, capsys)
     path = tmp_path / "lightfield" / "same.npz"
     arrays = {"x": np.arange(200_000, dtype=np.float64)}
     with ThreadPoolExecutor(4) as pool:
-        list(pool.map(lambda _: tb._save(path, arrays), range(16)))
+        list(pool.map(lambda _: store.save(path, arrays), range(16)))
     assert "could not cache" not in capsys.readouterr().err
     with np.load(path) as d:
         np.testing.assert_array_equal(d["x"], arrays["x"])
@@ -255,5 +256,5 @@ def test_workers_caching_the_same_table_at_once_do_not_collide(tmp_path, capsys)
     # An unwritable cache costs time, not correctness: a clear line, nothing left behind.
     blocked = tmp_path / "file"
     blocked.write_text("")
-    tb._save(blocked / "t.npz", arrays)
+    store.save(blocked / "t.npz", arrays)
     assert "could not cache the table" in capsys.readouterr().err

@@ -25,18 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from sensors.polarimeter.optics.rt import reference
-from sensors.polarimeter.optics.rt.table import (
-    DATA_FILE,
-    SUN_ZENITH_AIR_DEG,
-    TABLE_PLANES,
-    WaterKey,
-    _per,
-    _run,
-    _save,
-    _shipped,
-    _smooth,
-    cache_dir,
-)
+from sensors.polarimeter.optics.rt.grid import DATA_FILE, SUN_ZENITH_AIR_DEG, TABLE_PLANES, WaterKey
+from sensors.polarimeter.optics.rt.poles import smooth
+from sensors.polarimeter.optics.rt.store import cache_dir, per_ed, run_jobs, save
+from sensors.polarimeter.optics.rt.table import _shipped
 from sensors.polarimeter.optics.sky import SkySpec
 from twin.core.arrays import FloatArray
 
@@ -128,7 +120,7 @@ class SkyTable:
             (water, "sky", z, grid, photons, int(s.generate_state(1)[0]), sky)
             for z, s in zip(SUN_ZENITH_AIR_DEG, seeds, strict=True)
         ]
-        fields = _run(args, workers)
+        fields = run_jobs(args, workers)
         return cls(
             water=water,
             sky=sky,
@@ -151,17 +143,17 @@ class SkyTable:
                     k.berry_delta_rad,
                 ]
             ),
-            f"{prefix}field_per_ed": _per(self.field, self.e_down[:, :, None, None, None]),
+            f"{prefix}field_per_ed": per_ed(self.field, self.e_down[:, :, None, None, None]),
             f"{prefix}e_down": self.e_down,
             f"{prefix}transmittance": self.transmittance,
             f"{prefix}photons": np.array(self.photons),
-            f"{prefix}field_se_per_ed": _per(self.field_se, self.e_down[:, :, None, None]),
+            f"{prefix}field_se_per_ed": per_ed(self.field_se, self.e_down[:, :, None, None]),
         }
 
     @functools.cached_property
     def smooth(self) -> FloatArray:
-        """:attr:`field` with the rings at the zenith and the nadir made smooth (``_smooth``)."""
-        return _smooth(self.field, self.field.shape[3])
+        """:attr:`field` with the rings at the zenith and the nadir made smooth (:func:`poles.smooth`)."""
+        return smooth(self.field, self.field.shape[3])
 
     @functools.cached_property
     def remainder(self) -> FloatArray:
@@ -174,7 +166,7 @@ class SkyTable:
         from sensors.polarimeter.optics.rt import decompose
         from sensors.polarimeter.optics.rt.table import REMAINDER_POLE_ROWS, _n_inside, remainder_of
 
-        rem = _smooth(
+        rem = smooth(
             remainder_of(self.smooth, self.water, beams=None),
             self.field.shape[3],
             REMAINDER_POLE_ROWS,
@@ -253,5 +245,5 @@ def sky_table_for(water: WaterKey, sky: SkyKey) -> SkyTable:
         file=sys.stderr,
     )
     t = SkyTable.build(water, sky, FIRST_USE_SKY_PHOTONS, seed=0, workers=1)
-    _save(path, t.arrays())
+    save(path, t.arrays())
     return t

@@ -38,162 +38,32 @@ cached under ``$AUV_TWIN_CACHE`` (default ``~/.cache/auv-twin``).
 from __future__ import annotations
 
 import bisect
-import contextlib
 import dataclasses
 import functools
-import hashlib
 import math
-import os
-import secrets
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.optics import scattering
-from sensors.polarimeter.optics.rt import decompose, reference
+from sensors.polarimeter.optics.rt import decompose, poles, reference, store
+from sensors.polarimeter.optics.rt.frame_field import NONE, FrameField
+from sensors.polarimeter.optics.rt.frame_field import blend as blend
+from sensors.polarimeter.optics.rt.grid import DATA_FILE as DATA_FILE
+from sensors.polarimeter.optics.rt.grid import FIRST_USE_PHOTONS as FIRST_USE_PHOTONS
+from sensors.polarimeter.optics.rt.grid import MODEL_VERSION as MODEL_VERSION
+from sensors.polarimeter.optics.rt.grid import SHIPPED_PHOTONS as SHIPPED_PHOTONS
+from sensors.polarimeter.optics.rt.grid import SUN_ZENITH_AIR_DEG as SUN_ZENITH_AIR_DEG
+from sensors.polarimeter.optics.rt.grid import TABLE_INDEX as TABLE_INDEX
+from sensors.polarimeter.optics.rt.grid import TABLE_PLANES as TABLE_PLANES
+from sensors.polarimeter.optics.rt.grid import WIND_NODES_MPS as WIND_NODES_MPS
+from sensors.polarimeter.optics.rt.grid import WaterKey as WaterKey
 from twin.core.arrays import FloatArray
 
 if TYPE_CHECKING:
     from sensors.polarimeter.optics.rt.sky_table import SkyTable
-
-
-#: Air zenith angles of the sun at which the table is computed (degrees). 7.5° apart to 60°,
-#: closer towards the horizon: between nodes 15° apart the light 10–30° from the refracted sun
-#: was 3–4 % off the reference (II, sun 52°); at 7.5° it is within ~2 % (the closing note of
-#: the fidelity issue has the ring tables).
-SUN_ZENITH_AIR_DEG: tuple[float, ...] = (
-    0.0, 7.5, 15.0, 22.5, 30.0, 37.5, 45.0, 52.5, 60.0, 65.0, 70.0, 75.0, 80.0, 84.0, 87.0,
-)  # fmt: skip
-#: The table's planes, optical depths c z.
-TABLE_PLANES: tuple[float, ...] = (
-    0.0, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0, 20.0,
-)  # fmt: skip
-#: Wind speeds (m/s at 12.5 m) of the surfaces the tables are computed for: 0 (flat, shipped)
-#: and Cox–Munk seas (computed on first use); the renderer interpolates linearly in between (the
-#: mean square slope is linear in the wind). Up to the surface stage's limit of 30 m/s.
-WIND_NODES_MPS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0)
-#: Water index the tables are computed for (500 nm, S = 35, T ≈ 15–20 °C: Quan & Fry 1995).
-TABLE_INDEX = 1.34
-#: Histories per source for the shipped tables (about 2–3 % standard error per bin at c z ≈ 3–9).
-SHIPPED_PHOTONS = 1_500_000
-#: Histories per source for tables computed on first use.
-FIRST_USE_PHOTONS = 200_000
-
-#: Bumped whenever the transport changes what a table holds, so that stale caches are not read.
-#: 3: δ = 0.044 and P = 0.75 (sourced), the Fournier–Forand peak sampled exactly (b, not
-#: 1.009 b), the sun's aureole tallied about the refracted sun, sun nodes 7.5° apart.
-MODEL_VERSION = 3
-
-DATA_FILE = Path(__file__).resolve().parents[1] / "data" / "lightfield_jerlov_500nm.npz"
-
-
-@dataclass(frozen=True, slots=True)
-class WaterKey:
-    """What a table depends on (besides the fixed grid and index): the water and its surface.
-
-    ``wind_speed_mps`` is one of :data:`WIND_NODES_MPS` (the renderer interpolates between
-    them): the Cox–Munk sea of the reference (0 = flat). ``particle_dop_max`` and
-    ``depolarization_ratio`` are the phase matrix's P and δ
-    (:mod:`sensors.polarimeter.optics.scattering`).
-    """
-
-    a_per_m: float
-    b_molecular_per_m: float
-    b_particle_per_m: float
-    particle_backscatter_ratio: float
-    wind_speed_mps: float = 0.0
-    particle_dop_max: float = scattering.PARTICLE_DOP_MAX
-    depolarization_ratio: float = scattering.WATER_DEPOLARIZATION_RATIO
-
-    @classmethod
-    def of(cls, water: object, wind_speed_mps: float = 0.0) -> WaterKey:
-        """From a :class:`sensors.polarimeter.optics.water.WaterOptics` (and a wind node)."""
-        return cls(
-            round(float(water.a_per_m), 9),  # type: ignore[attr-defined]
-            round(float(water.b_molecular_per_m), 9),  # type: ignore[attr-defined]
-            round(float(water.b_particle_per_m), 9),  # type: ignore[attr-defined]
-            round(float(water.particle_backscatter_ratio), 9),  # type: ignore[attr-defined]
-            round(float(wind_speed_mps), 9),
-            round(float(getattr(water, "particle_dop_max", scattering.PARTICLE_DOP_MAX)), 9),
-            round(
-                float(
-                    getattr(water, "depolarization_ratio", scattering.WATER_DEPOLARIZATION_RATIO)
-                ),
-                9,
-            ),
-        )
-
-    def digest(self) -> str:
-        """A short stable name for the cache."""
-        text = (
-            f"{self.a_per_m:.9g},{self.b_molecular_per_m:.9g},{self.b_particle_per_m:.9g},"
-            f"{self.particle_backscatter_ratio:.9g},{TABLE_INDEX},{SUN_ZENITH_AIR_DEG},"
-            f"{TABLE_PLANES},{MODEL_VERSION},{self.wind_speed_mps:.9g},"
-            f"{self.particle_dop_max:.9g},{self.depolarization_ratio:.9g}"
-        )
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-    @property
-    def c_per_m(self) -> float:
-        """Beam attenuation c = a + b."""
-        return self.a_per_m + self.b_molecular_per_m + self.b_particle_per_m
-
-
-_NONE = np.zeros((1, 2, 3), dtype=np.float32)
-_NONE_ROWS = np.zeros(1)
-
-
-@dataclass(frozen=True)
-class FrameField:
-    """One frame's scattered-light grid (radiance units of the irradiances given to ``frame``).
-
-    Attributes:
-        inside: (T_in + 2, n_phi + 2, 3) Stokes at the bins inside Snell's window, padded: the
-            first and last rows repeat the first/last bin at the zenith and at the window's edge
-            (constant extrapolation), the first/last columns mirror the first/last azimuth bin
-            (U changes sign under the mirror).
-        inside_theta: (T_in + 2,) the rows' look zeniths (radians): 0, bin centres, θ_c.
-        outside: (T_out + 2, n_phi + 2, 3) the same from the window's edge to the nadir.
-        outside_theta: (T_out + 2,) θ_c, bin centres, π.
-        theta_c: The table's window edge (radians).
-        dphi: Azimuth bin width (radians); padded column j sits at (j − ½) dphi.
-        aureole: The sun's aureole, tapered and padded (:func:`decompose.pad_aureole`); one
-            row: none.
-        aureole_psi: Its rows' angles from the refracted sun (radians).
-        aureole_dom: Its position-angle bin width (radians).
-        up: The upwelling light at the surface, rows from the window's edge to the nadir as
-            :attr:`outside` (for the reflection into the window; a flat sea's share), or one
-            row: none.
-
-    :attr:`inside` and :attr:`outside` hold the remainder: the table's light less the aureole
-    and the reflection (:mod:`sensors.polarimeter.optics.rt.decompose`), which the kernel adds back.
-    """
-
-    inside: FloatArray
-    inside_theta: FloatArray
-    outside: FloatArray
-    outside_theta: FloatArray
-    theta_c: float
-    dphi: float
-    aureole: FloatArray = dataclasses.field(default_factory=lambda: _NONE)
-    aureole_psi: FloatArray = dataclasses.field(default_factory=lambda: _NONE_ROWS)
-    aureole_dom: float = 1.0
-    up: FloatArray = dataclasses.field(default_factory=lambda: _NONE)
-
-    @functools.cached_property
-    def inside_cos(self) -> FloatArray:
-        """The cos of :attr:`inside_theta` (descending), what the per-pixel kernel searches."""
-        return np.cos(self.inside_theta)
-
-    @functools.cached_property
-    def outside_cos(self) -> FloatArray:
-        """The cos of :attr:`outside_theta` (descending)."""
-        return np.cos(self.outside_theta)
 
 
 class _FrameGrid(NamedTuple):
@@ -241,7 +111,7 @@ class LightFieldTable:
             (key, src, z, grid, photons, int(s.generate_state(1)[0]), None)
             for (src, z), s in zip(jobs, seeds, strict=True)
         ]
-        fields = _run(args, workers)
+        fields = store.run_jobs(args, workers)
         suns, sky = fields[:-1], fields[-1]
         return cls(
             key=key,
@@ -281,16 +151,16 @@ class LightFieldTable:
             f"{prefix}n_phi": np.array(self.n_phi),
             # Per unit E_d of its plane, the field spans a few decades: float16 keeps 3 digits
             # (the Monte Carlo error is ~3 %) in half the bytes.
-            f"{prefix}sun_per_ed": _per(self.sun, self.e_down_sun[:, :, None, None, None]),
-            f"{prefix}sun_se_per_ed": _per(self.sun_se, self.e_down_sun[:, :, None, None]),
+            f"{prefix}sun_per_ed": store.per_ed(self.sun, self.e_down_sun[:, :, None, None, None]),
+            f"{prefix}sun_se_per_ed": store.per_ed(self.sun_se, self.e_down_sun[:, :, None, None]),
             f"{prefix}e_down_sun": self.e_down_sun,
             f"{prefix}sky": self.sky_uniform,
             f"{prefix}e_down_sky": self.e_down_sky_uniform,
             f"{prefix}photons": np.array(self.photons),
-            f"{prefix}aureole_per_ed": _per(
+            f"{prefix}aureole_per_ed": store.per_ed(
                 self.aureole, self.e_down_sun[:, :, None, None, None], np.float32
             ),
-            f"{prefix}aureole_se_per_ed": _per(
+            f"{prefix}aureole_se_per_ed": store.per_ed(
                 self.aureole_se, self.e_down_sun[:, :, None, None], np.float32
             ),
             f"{prefix}aureole_psi_edges_deg": self.aureole_psi_edges_deg,
@@ -331,8 +201,8 @@ class LightFieldTable:
 
     @functools.cached_property
     def _smooth(self) -> FloatArray:
-        """The sun field, its rings at the zenith and the nadir made smooth (:func:`_smooth`)."""
-        return _smooth(self.sun, self.n_phi)
+        """The sun field, its rings at the poles made smooth (:func:`poles.smooth`)."""
+        return poles.smooth(self.sun, self.n_phi)
 
     @functools.cached_property
     def aureole_grid(self) -> FloatArray:
@@ -355,7 +225,7 @@ class LightFieldTable:
 
         (:mod:`sensors.polarimeter.optics.rt.decompose`; the reflection on a flat sea only.)
         """
-        rem = _smooth(self.sun, self.n_phi).astype(np.float64)
+        rem = poles.smooth(self.sun, self.n_phi).astype(np.float64)
         edges = self.theta_edges_deg
         sa = reference.Grid(
             planes=TABLE_PLANES, theta_edges_deg=tuple(edges.tolist()), n_phi=self.n_phi
@@ -379,7 +249,8 @@ class LightFieldTable:
             for t in self.sun_zenith_water_deg
         ]
         beams = [decompose.beam_terms(self.key, z, TABLE_INDEX) for z in air]
-        rem = _smooth(remainder_of(rem, self.key, beams=beams), self.n_phi, REMAINDER_POLE_ROWS)
+        rem = remainder_of(rem, self.key, beams=beams)
+        rem = poles.smooth(rem, self.n_phi, REMAINDER_POLE_ROWS)
         return decompose.conserve(rem, edges, _n_inside(edges)).astype(np.float32)
 
     @functools.cached_property
@@ -450,7 +321,7 @@ class LightFieldTable:
         aur = e_sun_plane * at(self.aureole_grid, self.e_down_sun, tau_c, warp=False)
         gr = self._grid
         up_grid = (
-            _NONE
+            NONE
             if up is None
             else self._pad_rows(up.astype(np.float32)[gr.n_in :], False, gr.nadir_last)
         )
@@ -562,8 +433,8 @@ class LightFieldTable:
         n, m = rows.shape[0], rows.shape[1]
         grid = np.empty((n + 2, m + 2, 3), dtype=rows.dtype)
         grid[1:-1, 1:-1] = rows
-        grid[0, 1:-1] = _pole(rows[0], *self._pole_basis) if zenith else rows[0]
-        grid[-1, 1:-1] = _pole(rows[-1], *self._pole_basis) if nadir else rows[-1]
+        grid[0, 1:-1] = poles.pole(rows[0], *self._pole_basis) if zenith else rows[0]
+        grid[-1, 1:-1] = poles.pole(rows[-1], *self._pole_basis) if nadir else rows[-1]
         grid[:, 0] = grid[:, 1]
         grid[:, 0, 2] *= -1.0
         grid[:, -1] = grid[:, -2]
@@ -572,33 +443,9 @@ class LightFieldTable:
 
     @functools.cached_property
     def _pole_basis(self) -> tuple[FloatArray, FloatArray]:
-        """The cos 2φ and sin 2φ of the azimuth bins' centres (:func:`_pole`)."""
+        """The cos 2φ and sin 2φ of the azimuth bins' centres (:func:`poles.pole`)."""
         phi = self._grid.phi
         return np.cos(2 * phi), np.sin(2 * phi)
-
-
-def blend(parts: list[tuple[float, FrameField]]) -> FrameField:
-    """The weighted sum of frame fields on one grid (the renderer's wind interpolation).
-
-    The reflection's upwelling light is the flat sea's alone (a wavy sea keeps it in its bins).
-    """
-    first = parts[0][1]
-    inside = sum(w * f.inside for w, f in parts)
-    outside = sum(w * f.outside for w, f in parts)
-    aur = sum(w * f.aureole for w, f in parts)
-    ups = [w * f.up for w, f in parts if f.up.shape[0] > 1]
-    return FrameField(
-        np.ascontiguousarray(inside, dtype=np.float32),
-        first.inside_theta,
-        np.ascontiguousarray(outside, dtype=np.float32),
-        first.outside_theta,
-        first.theta_c,
-        first.dphi,
-        np.ascontiguousarray(aur, dtype=np.float32),
-        first.aureole_psi,
-        first.aureole_dom,
-        np.ascontiguousarray(sum(ups), dtype=np.float32) if ups else _NONE,
-    )
 
 
 def remainder_of(field: FloatArray, key: WaterKey, beams: list[tuple] | None) -> FloatArray:
@@ -655,85 +502,6 @@ def _reflection_binner(n_in: int) -> decompose.ReflectionBinner:
     return decompose.ReflectionBinner(np.asarray(grid.theta_edges_deg), grid.n_phi, n_in)
 
 
-def _per(field: FloatArray, e_down: FloatArray, dtype: type = np.float16) -> FloatArray:
-    """The field / E_d as float16 (0 where no history reached the plane)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(e_down > 0, field / np.where(e_down > 0, e_down, 1.0), 0.0).astype(dtype)
-
-
-def _pole_ring(rings: FloatArray, n_phi: int) -> FloatArray:
-    """(..., n_phi, 3) rings projected on I: {1, cos φ}, Q: {1, cos 2φ}, U: {sin 2φ}."""
-    phi = (np.arange(n_phi) + 0.5) * math.pi / n_phi
-    out = np.empty_like(rings)
-    for i, basis in enumerate(
-        (
-            np.stack([np.ones_like(phi), np.cos(phi)], 1),
-            np.stack([np.ones_like(phi), np.cos(2 * phi)], 1),
-            np.sin(2 * phi)[:, None],
-        )
-    ):
-        proj = basis @ np.linalg.pinv(basis)
-        out[..., i] = np.einsum("ij,...j->...i", proj, rings[..., i])
-    np.maximum(out[..., 0], 0.0, out=out[..., 0])
-    return out
-
-
-def _pole(ring: FloatArray, c2: FloatArray, s2: FloatArray) -> FloatArray:
-    """(n_phi, 3) the zenith's (or nadir's) Stokes in each column's meridian frame.
-
-    ``c2``, ``s2``: cos 2φ and sin 2φ at the columns' azimuths φ.
-    """
-    a = 2.0 * np.mean(ring[:, 1] * c2)  # Q = a cos 2φ (the ring's own m = 2 terms)
-    b = 2.0 * np.mean(ring[:, 2] * s2)  # U = b sin 2φ
-    out = np.empty_like(ring)
-    out[:, 0] = ring[:, 0].mean()
-    out[:, 1] = a * c2
-    out[:, 2] = b * s2
-    return out
-
-
-def _smooth(field: FloatArray, n_phi: int, rows: tuple[int, ...] = (0, -1)) -> FloatArray:
-    """A (S, P, T, n_phi, 3) field with the rings next to the zenith and the nadir made smooth.
-
-    Those rings are reduced to what a smooth field has there: I = mean + a cos φ gradient,
-    (Q, U) the m = 2 pattern of a fixed polarization in the meridian frame (I, Q even in φ,
-    U odd). Their bins have the smallest solid angles, hence the largest Monte Carlo noise,
-    and converge on one point, where per-bin noise would make the field jump.
-    """
-    out = field.copy()
-    for r in rows:
-        out[..., r, :, :] = _pole_ring(out[..., r, :, :], n_phi)
-    return out
-
-
-def _run(args: list[tuple], workers: int) -> list[reference.LightField]:
-    if workers > 1:
-        with ProcessPoolExecutor(workers) as ex:
-            return list(ex.map(_solve_one, args))
-    return [_solve_one(a) for a in args]
-
-
-def _solve_one(args: tuple) -> reference.LightField:
-    key, src, z, grid, photons, seed, sky = args
-    return reference.solve(
-        key.a_per_m,
-        key.b_molecular_per_m,
-        key.b_particle_per_m,
-        key.particle_backscatter_ratio,
-        particle_dop_max=key.particle_dop_max,
-        depolarization_ratio=key.depolarization_ratio,
-        source=src,
-        sun_zenith_air_deg=z,
-        sky=None if sky is None else sky.spec(),
-        wind_speed_mps=key.wind_speed_mps,
-        n_water=TABLE_INDEX,
-        grid=grid,
-        photons=photons,
-        batches=10,
-        seed=seed,
-    )
-
-
 def wind_nodes(wind_speed_mps: float) -> list[tuple[float, float]]:
     """The table winds around ``wind_speed_mps`` and their linear weights (zero weights dropped)."""
     w = float(wind_speed_mps)
@@ -745,13 +513,6 @@ def wind_nodes(wind_speed_mps: float) -> list[tuple[float, float]]:
     i = int(np.clip(np.searchsorted(nodes, w, side="right") - 1, 0, len(nodes) - 2))
     f = (w - nodes[i]) / (nodes[i + 1] - nodes[i])
     return [(n, wt) for n, wt in ((nodes[i], 1.0 - f), (nodes[i + 1], f)) if wt > 0.0]
-
-
-def cache_dir() -> Path:
-    """Where tables computed on first use are kept."""
-    return (
-        Path(os.environ.get("AUV_TWIN_CACHE", Path.home() / ".cache" / "auv-twin")) / "lightfield"
-    )
 
 
 @functools.lru_cache(maxsize=1)
@@ -766,30 +527,13 @@ def _shipped() -> dict[WaterKey, LightFieldTable]:
     return out
 
 
-def _save(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write atomically; an unwritable cache costs time, not correctness.
-
-    The temporary name is this writer's own: campaign workers that compute the same table at
-    once each write their own file, and the last rename wins with an identical table.
-    """
-    tmp = path.with_name(f"{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp.npz")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(tmp, **arrays)
-        tmp.replace(path)
-    except OSError as e:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
-        print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
-
-
 @functools.lru_cache(maxsize=32)
 def table_for(key: WaterKey) -> LightFieldTable:
     """The table of a water body: shipped, cached, or computed now (and cached)."""
     shipped = _shipped()
     if key in shipped:
         return shipped[key]
-    path = cache_dir() / f"{key.digest()}.npz"
+    path = store.cache_dir() / f"{key.digest()}.npz"
     if path.exists():
         with np.load(path) as d:
             return LightFieldTable.from_arrays(d)
@@ -802,5 +546,5 @@ def table_for(key: WaterKey) -> LightFieldTable:
         file=sys.stderr,
     )
     t = LightFieldTable.build(key, FIRST_USE_PHOTONS, seed=0, workers=1)
-    _save(path, t.arrays())
+    store.save(path, t.arrays())
     return t
