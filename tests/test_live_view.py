@@ -17,7 +17,7 @@ import pytest
 from rrd_helpers import entities
 
 import scenarios
-from twin.record.recorder import salvage
+from twin.record.rrd_files import salvage
 
 
 def _free_port() -> int:

@@ -20,7 +20,8 @@ from rerun.chunk import ChunkStore, LazyStore, RrdReader
 from twin.core.frames import euler_to_quat
 from twin.core.messages import Reading
 from twin.record.blueprint import default_blueprint
-from twin.record.recorder import MAX_SERIES_WIDTH, Recorder, salvage
+from twin.record.recorder import MAX_SERIES_WIDTH, Recorder
+from twin.record.rrd_files import salvage
 
 START = dt.datetime(2024, 6, 21, 10, 30, 15, 250000, tzinfo=dt.UTC)
 START_NS = (START - dt.datetime(1970, 1, 1, tzinfo=dt.UTC)) // dt.timedelta(microseconds=1) * 1000

@@ -63,7 +63,8 @@ from twin.record.blueprint import default_blueprint
 from twin.record.mcap_log import B_FROM_FLU, REPLAY_METADATA
 from twin.record.observer import log_compass_event, log_nav_sample, log_truth
 from twin.record.provenance import fingerprint, parquet_metadata, provenance
-from twin.record.recorder import Recorder, compact, utc_ns
+from twin.record.recorder import Recorder, utc_ns
+from twin.record.rrd_files import compact
 from twin.record.timeseries import fix_row
 from twin.scoring.navigation import VariantScore
 from twin.sim.build import navigator_config

@@ -36,7 +36,8 @@ from twin.record.mcap_log import FILE as MCAP_FILE
 from twin.record.mcap_log import McapLog
 from twin.record.observer import ChaseCamera, RunRecorder, log_scene
 from twin.record.provenance import fingerprint, provenance
-from twin.record.recorder import Recorder, compact
+from twin.record.recorder import Recorder
+from twin.record.rrd_files import compact
 from twin.record.timeseries import TimeSeriesWriter
 from twin.scoring.mission import format_summary, fusion_warnings, summarize
 from twin.scoring.observer import RunScorer

@@ -31,25 +31,13 @@ Entity paths::
     /camera/chase (etc.)        EncodedImage (JPEG) or Image via log_image
     /log                        TextLog
 
-Crash behaviour (measured on rerun-sdk 0.41.0):
-
-* ``close()`` (or leaving ``with``) flushes and writes the RRD footer; ``RrdReader(path).store()``
-  then works. Call it from a ``finally``.
-* Every ``flush()`` ends with ``RecordingStream.flush()``, which blocks until the chunks are written
-  to the file. If the process is then killed (SIGKILL, OOM), the file has no footer:
-  ``RrdReader(path).store()`` refuses it ("Legacy RRD without footer") but
-  ``RrdReader(path).stream().collect()`` reads every chunk flushed before the kill. If the kill
-  landed mid-write the file ends in a torn message and ``stream()`` raises ("Message payload ...
-  exceeds file size"); :func:`salvage` (``rerun rrd merge --continue-on-error``) then writes a new,
-  footered file with every complete message.
+Crash behaviour, and how to read or repair a cut recording: :mod:`twin.record.rrd_files`.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import math
-import subprocess
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -62,7 +50,9 @@ import rerun.blueprint as rrb
 from twin.core.arrays import Float64Array as FloatArray
 from twin.core.frames import wxyz_to_xyzw
 from twin.core.messages import Reading
+from twin.record import scene
 from twin.record.blueprint import LOG_ENTITY, SIM_TIME, UTC, default_blueprint
+from twin.record.rrd_files import compact
 
 # A reading channel with more elements than this is a frame or a matrix, not a time series: it is
 # skipped (and listed in ``Recorder.skipped_channels``); log images with ``log_image``.
@@ -72,12 +62,7 @@ _NS_PER_S = 1_000_000_000
 _EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 _XYZ = ("x", "y", "z")
 _XYZ_COLORS = ((230, 60, 60), (60, 200, 60), (70, 110, 240))
-_TRUTH_COLOR = (255, 200, 40)
 _PATH_COLOR = (255, 140, 0)
-_WAYPOINT_COLOR = (220, 40, 220)
-_SURFACE_COLOR = (90, 170, 230)
-_SEABED_COLOR = (150, 120, 80)
-_TANK_COLOR = (170, 170, 170)
 
 # Column layout of one buffered truth row: t, position (3), quaternion wxyz (4), velocity (3),
 # roll/pitch/yaw (3), heading, depth.
@@ -94,53 +79,6 @@ _TRUTH_WIDTH = 16
 def utc_ns(t: dt.datetime) -> int:
     """Nanoseconds since 1970 of an aware datetime, exactly (float seconds resolve ~0.2 µs)."""
     return (t - _EPOCH) // dt.timedelta(microseconds=1) * 1000
-
-
-def salvage(src: Path | str, dst: Path | str) -> Path:
-    """Rewrite a recording cut short by a killed process into a complete, footered file.
-
-    Uses the Rerun CLI bundled with rerun-sdk (``rerun rrd merge --continue-on-error``), which keeps
-    every complete message and drops a torn last one. The result opens with
-    ``RrdReader(dst).store()``; chunks are compacted, so its ``summary()`` differs from the
-    original's.
-
-    Args:
-        src: The footer-less (possibly truncated) ``.rrd``.
-        dst: Where to write the repaired copy.
-
-    Returns:
-        ``dst`` as a Path.
-
-    Raises:
-        subprocess.CalledProcessError: If the CLI fails (its stderr is in the exception).
-    """
-    dst = Path(dst)
-    cmd = [sys.executable, "-m", "rerun_cli", "rrd", "merge", "--continue-on-error"]
-    subprocess.run([*cmd, str(src), "-o", str(dst)], check=True, capture_output=True, text=True)
-    return dst
-
-
-def compact(path: Path | str) -> Path:
-    """Rewrite a closed recording in compact chunks (``rerun rrd optimize``), in place.
-
-    While a run flies, the recorder flushes every few simulated seconds so that a killed run
-    leaves a readable file; that leaves ~50 times more chunks than the 2 MiB target (``rerun rrd
-    stats``: 1964 chunks against a lower bound of 40 for the default trial). Compacting the
-    closed file brings it to the bound (measured: 38 of 38) in ~0.3 s. The original is kept if
-    the CLI fails.
-    """
-    path = Path(path)
-    tmp = path.with_name(path.name + ".compact.tmp")
-    cmd = [sys.executable, "-m", "rerun_cli", "rrd", "optimize", str(path), "-o", str(tmp)]
-    try:
-        subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=600)
-        tmp.replace(path)
-    except (OSError, subprocess.SubprocessError):
-        tmp.unlink(missing_ok=True)
-    except KeyboardInterrupt:  # the closed original stays whole; no half-written copy is left
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
 
 
 def _default_names(width: int, label: str) -> list[str]:
@@ -307,84 +245,15 @@ class Recorder:
         seabed_z: float | None = None,
         tank_half_sizes: tuple[float, float, float] | None = None,
     ) -> None:
-        """Log what does not change during the run (all static).
-
-        Args:
-            waypoints_n: Mission waypoints in n (ENU, metres), shape (N, 3) or (N, 2) (then at the
-                surface); ``None`` for none.
-            vehicle_half_sizes: Hull ellipsoid half sizes in body axes (x right, y forward, z up).
-            surface_z: World z of the sea surface (m).
-            seabed_z: World z of the seabed (m); ``None`` draws none.
-            tank_half_sizes: Half sizes of a test tank (m). The tank is centred on the world origin
-                in x and y, with its top at ``surface_z``; ``None`` for open water.
-        """
-        rec = self._rec
-        rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        half = np.asarray(vehicle_half_sizes, dtype=np.float64)
-        rec.log(
-            "/world/auv/hull",
-            rr.Ellipsoids3D(
-                half_sizes=[half], colors=[_TRUTH_COLOR], fill_mode=rr.components.FillMode.Solid
-            ),
-            static=True,
+        """Log what does not change during the run (:func:`twin.record.scene.log_static_scene`)."""
+        scene.log_static_scene(
+            self._rec,
+            waypoints_n=waypoints_n,
+            vehicle_half_sizes=vehicle_half_sizes,
+            surface_z=surface_z,
+            seabed_z=seabed_z,
+            tank_half_sizes=tank_half_sizes,
         )
-        rec.log("/world/auv", rr.TransformAxes3D(axis_length=float(half.max()) * 0.6), static=True)
-        rec.log(
-            "/world/auv/nose",
-            rr.Arrows3D(vectors=[[0.0, 1.3 * half[1], 0.0]], colors=[(255, 60, 60)]),
-            static=True,
-        )
-
-        extent_pts: list[FloatArray] = [np.zeros((1, 2))]
-        if waypoints_n is not None and len(waypoints_n) > 0:
-            wps = np.asarray(waypoints_n, dtype=np.float64)
-            if wps.ndim != 2 or wps.shape[1] not in (2, 3):
-                raise ValueError(f"waypoints_n has shape {wps.shape}: expected (N, 3) or (N, 2)")
-            if wps.shape[1] == 2:
-                wps = np.column_stack([wps, np.full(len(wps), surface_z)])
-            rec.log(
-                "/world/mission/waypoints",
-                rr.Points3D(
-                    wps,
-                    radii=rr.Radius.ui_points(5.0),
-                    colors=[_WAYPOINT_COLOR],
-                    labels=[f"WP{i}" for i in range(len(wps))],
-                ),
-                static=True,
-            )
-            rec.log(
-                "/world/mission/route",
-                rr.LineStrips3D(
-                    [wps], radii=rr.Radius.ui_points(1.0), colors=[(*_WAYPOINT_COLOR, 160)]
-                ),
-                static=True,
-            )
-            extent_pts.append(wps[:, :2])
-
-        if tank_half_sizes is not None:
-            th = np.asarray(tank_half_sizes, dtype=np.float64)
-            rec.log(
-                "/world/tank",
-                rr.Boxes3D(
-                    half_sizes=[th],
-                    centers=[[0.0, 0.0, surface_z - th[2]]],
-                    colors=[_TANK_COLOR],
-                    fill_mode=rr.components.FillMode.MajorWireframe,
-                ),
-                static=True,
-            )
-            lo, hi = -th[:2], th[:2]
-        else:
-            pts = np.concatenate(extent_pts)
-            # Open water: frame the mission with a margin, at least 50 m across.
-            pad = max(10.0, 0.1 * float(np.ptp(pts, axis=0).max()))
-            lo, hi = pts.min(axis=0) - pad, pts.max(axis=0) + pad
-            centre, span = (lo + hi) / 2, np.maximum(hi - lo, 50.0)
-            lo, hi = centre - span / 2, centre + span / 2
-
-        rec.log("/world/surface", _grid(lo, hi, surface_z, _SURFACE_COLOR), static=True)
-        if seabed_z is not None:
-            rec.log("/world/seabed", _grid(lo, hi, seabed_z, _SEABED_COLOR), static=True)
 
     # ------------------------------------------------------------------ buffered streams
 
@@ -546,7 +415,7 @@ class Recorder:
         points: np.ndarray,
         *,
         radius: float = 4.0,
-        color: tuple[int, int, int] = _TRUTH_COLOR,
+        color: tuple[int, int, int] = scene.TRUTH_COLOR,
         label: str | None = None,
     ) -> None:
         """Log image-space points now (e.g. a truth marker over a camera image).
@@ -771,16 +640,3 @@ class Recorder:
             indexes=self._time_columns(t),
             columns=rr.LineStrips3D.columns(strips=list(segments)),
         )
-
-
-def _grid(lo: FloatArray, hi: FloatArray, z: float, color: tuple[int, int, int]) -> rr.LineStrips3D:
-    """A rectangular grid of lines at height z covering [lo, hi] in x and y (about 10 cells)."""
-    span = float(max(hi[0] - lo[0], hi[1] - lo[1]))
-    raw = max(span / 10.0, 1e-3)
-    mag = 10.0 ** math.floor(math.log10(raw))
-    step = next(m * mag for m in (1.0, 2.0, 5.0, 10.0) if m * mag >= raw)
-    xs = np.arange(math.ceil(lo[0] / step), math.floor(hi[0] / step) + 1) * step
-    ys = np.arange(math.ceil(lo[1] / step), math.floor(hi[1] / step) + 1) * step
-    strips = [[[x, lo[1], z], [x, hi[1], z]] for x in xs]
-    strips += [[[lo[0], y, z], [hi[0], y, z]] for y in ys]
-    return rr.LineStrips3D(strips, radii=rr.Radius.ui_points(0.5), colors=[(*color, 128)])

@@ -1,0 +1,67 @@
+"""Recordings after the run: repair one cut short by a killed process, compact a closed one.
+
+Crash behaviour (measured on rerun-sdk 0.41.0):
+
+* ``close()`` (or leaving ``with``) flushes and writes the RRD footer; ``RrdReader(path).store()``
+  then works. Call it from a ``finally``.
+* Every ``flush()`` ends with ``RecordingStream.flush()``, which blocks until the chunks are written
+  to the file. If the process is then killed (SIGKILL, OOM), the file has no footer:
+  ``RrdReader(path).store()`` refuses it ("Legacy RRD without footer") but
+  ``RrdReader(path).stream().collect()`` reads every chunk flushed before the kill. If the kill
+  landed mid-write the file ends in a torn message and ``stream()`` raises ("Message payload ...
+  exceeds file size"); :func:`salvage` (``rerun rrd merge --continue-on-error``) then writes a new,
+  footered file with every complete message.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+
+def salvage(src: Path | str, dst: Path | str) -> Path:
+    """Rewrite a recording cut short by a killed process into a complete, footered file.
+
+    Uses the Rerun CLI bundled with rerun-sdk (``rerun rrd merge --continue-on-error``), which keeps
+    every complete message and drops a torn last one. The result opens with
+    ``RrdReader(dst).store()``; chunks are compacted, so its ``summary()`` differs from the
+    original's.
+
+    Args:
+        src: The footer-less (possibly truncated) ``.rrd``.
+        dst: Where to write the repaired copy.
+
+    Returns:
+        ``dst`` as a Path.
+
+    Raises:
+        subprocess.CalledProcessError: If the CLI fails (its stderr is in the exception).
+    """
+    dst = Path(dst)
+    cmd = [sys.executable, "-m", "rerun_cli", "rrd", "merge", "--continue-on-error"]
+    subprocess.run([*cmd, str(src), "-o", str(dst)], check=True, capture_output=True, text=True)
+    return dst
+
+
+def compact(path: Path | str) -> Path:
+    """Rewrite a closed recording in compact chunks (``rerun rrd optimize``), in place.
+
+    While a run flies, the recorder flushes every few simulated seconds so that a killed run
+    leaves a readable file; that leaves ~50 times more chunks than the 2 MiB target (``rerun rrd
+    stats``: 1964 chunks against a lower bound of 40 for the default trial). Compacting the
+    closed file brings it to the bound (measured: 38 of 38) in ~0.3 s. The original is kept if
+    the CLI fails.
+    """
+    path = Path(path)
+    tmp = path.with_name(path.name + ".compact.tmp")
+    cmd = [sys.executable, "-m", "rerun_cli", "rrd", "optimize", str(path), "-o", str(tmp)]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=600)
+        tmp.replace(path)
+    except (OSError, subprocess.SubprocessError):
+        tmp.unlink(missing_ok=True)
+    except KeyboardInterrupt:  # the closed original stays whole; no half-written copy is left
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
