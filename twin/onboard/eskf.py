@@ -53,20 +53,26 @@ are taken as continuous-time densities on the ENU error states (the paper lists 
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
-from scipy.stats import chi2
 
 from twin.core import earth
 from twin.core.arrays import Float64Array as FloatArray
 from twin.core.frames import dcm_to_euler, yaw_to_heading_deg
 from twin.core.messages import Reading
 from twin.onboard import eskf_kernels, mechanization
-from twin.onboard.eskf_config import GM_SIGMA_PER_BIAS_INSTABILITY, EskfConfig, ImuGrade
+from twin.onboard.eskf_algebra import (
+    chi2_threshold,
+    cross3,
+    dot3,
+    given3,
+    inverse_spd,
+    tangent_basis,
+    unit3,
+)
+from twin.onboard.eskf_config import GM_SIGMA_PER_BIAS_INSTABILITY, EskfConfig, ImuGrade, Triple
 from twin.onboard.eskf_dynamics import (
     _F_VARYING,
     BA,
@@ -78,6 +84,7 @@ from twin.onboard.eskf_dynamics import (
     attitude_error,
     error_dynamics,
 )
+from twin.onboard.eskf_results import MeasurementKind, NavEstimate, Rejection, UpdateResult
 from twin.onboard.ins import EARTH_CONSTANTS, NavState, StrapdownIns
 
 __all__ = [
@@ -93,142 +100,6 @@ __all__ = [
     "chi2_threshold",
     "error_dynamics",
 ]
-
-
-Triple = tuple[float, float, float]
-#: The built-in measurements; a navigation aid (twin.onboard.aids) names its own kind.
-MeasurementKind = Literal["gravity", "sun", "depth", "map"] | str
-
-
-@dataclass(frozen=True, slots=True)
-class Rejection:
-    """A measurement the innovation gate refused."""
-
-    t: float
-    kind: MeasurementKind
-    nis: float
-    threshold: float
-
-
-@dataclass(frozen=True, slots=True)
-class UpdateResult:
-    """What one update call did.
-
-    Attributes:
-        kind: "gravity", "sun" or "depth".
-        t: Filter time (s).
-        applied: True when the correction was applied.
-        nis: Normalized innovation squared (NaN when not computed).
-        reason: "" when applied, else why not ("gate", "not quasi-static", "no fix", ...).
-    """
-
-    kind: MeasurementKind
-    t: float
-    applied: bool
-    nis: float = math.nan
-    reason: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class NavEstimate:
-    """The filter's estimate at one instant (copies).
-
-    Attributes:
-        t: Time (s).
-        roll, pitch, yaw: Attitude (rad), :mod:`twin.core.frames` convention.
-        heading_deg: Compass heading, degrees clockwise from North.
-        heading_sigma_deg: 1σ of the heading, √P[φ_U, φ_U] in degrees (exact for a level
-            vehicle, first order otherwise).
-        c_bn: C_b^n (3×3).
-        v_enu: Velocity (m/s).
-        lat_rad, lon_rad, h_m: Position; h = −depth.
-        gyro_bias: Gyro bias estimate (rad/s, body); accel_bias: (m/s², body).
-        covariance: The 15×15 error covariance P in the state order of the module docstring.
-    """
-
-    t: float
-    roll: float
-    pitch: float
-    yaw: float
-    heading_deg: float
-    heading_sigma_deg: float
-    c_bn: FloatArray
-    v_enu: FloatArray
-    lat_rad: float
-    lon_rad: float
-    h_m: float
-    gyro_bias: FloatArray
-    accel_bias: FloatArray
-    covariance: FloatArray
-
-    @property
-    def depth_m(self) -> float:
-        return -self.h_m
-
-
-def _cross(a: Triple, b: Triple) -> Triple:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _tangent_basis(s: Triple) -> tuple[Triple, Triple]:
-    """Two orthonormal vectors spanning the plane normal to the unit vector ``s``."""
-    a = (1.0, 0.0, 0.0) if abs(s[0]) < 0.9 else (0.0, 1.0, 0.0)
-    e1 = _cross(s, a)
-    n = math.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
-    e1 = (e1[0] / n, e1[1] / n, e1[2] / n)
-    return e1, _cross(s, e1)
-
-
-def _unit3(name: str, value: Any) -> Triple:
-    try:
-        arr = np.asarray(value, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"Eskf.update_sun {name} = {value!r}: must be 3 finite numbers") from exc
-    x, y, z = arr.tolist()
-    n = math.sqrt(x * x + y * y + z * z)
-    if not (math.isfinite(n) and 0.5 < n < 1.5):
-        raise ValueError(
-            f"Eskf.update_sun {name} = {value!r}: must be a finite unit vector (norm {n:.3g})"
-        )
-    return (x / n, y / n, z / n)
-
-
-def _inverse_spd(s: FloatArray) -> FloatArray:
-    """S⁻¹ for a small symmetric positive-definite S.
-
-    Closed form up to 3×3: np.linalg.inv's call overhead (≈ 10 µs) is several times the whole
-    update's arithmetic.
-    """
-    m = s.shape[0]
-    if m == 1:
-        return 1.0 / s
-    if m == 2:
-        (a, b), (_, d) = s.tolist()
-        det = a * d - b * b
-        if det > 0.0:
-            return np.array([[d, -b], [-b, a]]) / det
-    elif m == 3:
-        (a, b, c), (_, d, e), (_, _, f) = s.tolist()
-        c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
-        det = a * c00 + b * c01 + c * c02
-        if det > 0.0:
-            return (
-                np.array(
-                    [
-                        [c00, c01, c02],
-                        [c01, a * f - c * c, b * c - a * e],
-                        [c02, b * c - a * e, a * d - b * b],
-                    ]
-                )
-                / det
-            )
-    return np.linalg.inv(s)
-
-
-@functools.lru_cache(maxsize=64)
-def chi2_threshold(probability: float, dof: int) -> float:
-    """χ²_dof⁻¹(p), the innovation gate (cached: scipy's quantile costs ~0.1 ms); ∞ for p ≥ 1."""
-    return math.inf if probability >= 1.0 else float(chi2.ppf(probability, dof))
 
 
 class Eskf:
@@ -469,8 +340,8 @@ class Eskf:
         self._f_sum = [0.0, 0.0, 0.0]
         self._w_sum = [0.0, 0.0, 0.0]
         self._n_sum = 0
-        fx, fy, fz = mean_f if specific_force is None else _given3(specific_force)
-        wx, wy, wz = mean_w if angular_rate is None else _given3(angular_rate)
+        fx, fy, fz = mean_f if specific_force is None else given3(specific_force)
+        wx, wy, wz = mean_w if angular_rate is None else given3(angular_rate)
         if not math.isfinite(fx + fy + fz + wx + wy + wz):
             raise ValueError(
                 f"Eskf.update_gravity specific_force/angular_rate: non-finite input "
@@ -546,8 +417,8 @@ class Eskf:
                 covariance_body = getattr(fix, "covariance_body", None)
         if sun_body is None or sun_enu is None:
             raise ValueError("Eskf.update_sun: sun_body and sun_enu are required")
-        s_b = _unit3("sun_body", sun_body)
-        s_n = _unit3("sun_enu", sun_enu)
+        s_b = unit3("sun_body", sun_body)
+        s_n = unit3("sun_enu", sun_enu)
         r_b = (
             self._r_sun
             if covariance_body is None
@@ -559,7 +430,7 @@ class Eskf:
                 return UpdateResult("sun", self.t, False, reason="sun near the zenith")
             basis: tuple[Triple, ...] = ((s_n[1] / rho, -s_n[0] / rho, 0.0),)
         else:
-            basis = _tangent_basis(s_n)
+            basis = tangent_basis(s_n)
         self.propagate_covariance()
         c0, c1, c2, c3, c4, c5, c6, c7, c8 = self.ins._c
         # Predicted minus measured: C ŝ^b − s^n, on the plane normal to s^n (basis e1, e2).
@@ -569,11 +440,11 @@ class Eskf:
             c3 * bx + c4 * by + c5 * bz - s_n[1],
             c6 * bx + c7 * by + c8 * bz - s_n[2],
         )
-        z = np.array([_dot(e, d) for e in basis])
+        z = np.array([dot3(e, d) for e in basis])
         # H = Eᵀ [s^n×]: row i is (e_i × s^n)ᵀ on φ.
         h = np.zeros((len(basis), DIM))
         for i, e in enumerate(basis):
-            h[i, PHI] = _cross(e, s_n)
+            h[i, PHI] = cross3(e, s_n)
         # R = Eᵀ C Σ_b Cᵀ E = G Σ_b Gᵀ with the rows of G = Eᵀ C = (Cᵀ e_i)ᵀ.
         g = np.array(
             [
@@ -696,7 +567,7 @@ class Eskf:
         pht = p @ h.T
         s = h @ pht
         s += r
-        s_inv = _inverse_spd(s)
+        s_inv = inverse_spd(s)
         zl = z.tolist()
         nis = sum(a * b for a, b in zip(zl, (s_inv @ z).tolist(), strict=True))
         threshold = self._gate[len(zl)]
@@ -758,12 +629,3 @@ class Eskf:
             accel_bias=np.array(ins._ba),
             covariance=self.P.copy(),
         )
-
-
-def _dot(a: Triple, b: Triple) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _given3(value: Any) -> Triple:
-    x, y, z = np.asarray(value, dtype=np.float64).reshape(3).tolist()
-    return (x, y, z)

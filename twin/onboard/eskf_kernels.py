@@ -36,7 +36,7 @@ def propagate(p, f, dt, q_diag, qc, eye):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _inverse_spd(s):  # type: ignore[no-untyped-def]
-    """(ok, S⁻¹): :func:`twin.onboard.eskf._inverse_spd`'s closed forms; ok False otherwise."""
+    """(ok, S⁻¹): the closed forms of :func:`twin.onboard.eskf_algebra.inverse_spd`, or ok False."""
     m = s.shape[0]
     if m == 1:
         return True, 1.0 / s
