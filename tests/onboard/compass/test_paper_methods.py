@@ -23,7 +23,7 @@ from twin.onboard.compass.roia import (
     printed_radius_px,
     zenith_radius_rad,
 )
-from twin.onboard.compass.snell import SNELL_PAPER, SnellConfig
+from twin.onboard.compass.snell_config import SNELL_PAPER, SnellConfig
 
 PAPER_CONFIGS = {"pol_paper": POL_PAPER, "roia_paper": ROIA_PAPER, "snell_paper": SNELL_PAPER}
 

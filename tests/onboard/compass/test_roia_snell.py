@@ -16,7 +16,8 @@ from twin.onboard.compass import create
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.geometry import meridian_basis
 from twin.onboard.compass.roia import RoiaConfig, RoiaMethod, p_scattered, tilt_rad, zenith_crop
-from twin.onboard.compass.snell import SnellConfig, SnellWindowMethod, robust_sinusoid
+from twin.onboard.compass.snell import SnellWindowMethod, robust_sinusoid
+from twin.onboard.compass.snell_config import SnellConfig
 from twin.onboard.compass.working_frame import (
     bin_mosaic,
     binned_calibration,
