@@ -47,7 +47,6 @@ from typing import Any, ClassVar
 
 import cv2
 import dm_env
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,15 +56,15 @@ from sensors.polarimeter import tank as tank_mod
 
 # The configuration and truth records live in spec.py; re-exported here, where users import them.
 from sensors.polarimeter.fast_path import FastPath, _FastPlan, _Frame
-from sensors.polarimeter.optics import bubbles as bubbles_mod
+from sensors.polarimeter.occlusion import occlusion_mask
 from sensors.polarimeter.optics import caustics as caustics_mod
-from sensors.polarimeter.optics import particles as particles_mod
 from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import sky_radiance
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
+from sensors.polarimeter.points import PointScatterers
 from sensors.polarimeter.spec import OpticsConfig, PolarimeterSpec, PolarimeterTruth
 from sensors.polarimeter.unit import bench as bench_mod
 from sensors.polarimeter.unit import camera as camera_mod
@@ -89,11 +88,10 @@ def _hemisphere(n: int) -> NDArray[np.float64]:
 
 
 _HEMI = _hemisphere(2048)
-_DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm below the site
 
 
 @register
-class Polarimeter(FastPath, Sensor):
+class Polarimeter(FastPath, PointScatterers, Sensor):
     """The upward-looking fisheye DoFP polarization camera at the ``polarimeter`` site.
 
     Call :meth:`configure` with the world's :class:`OpticsConfig` before the first frame (the
@@ -459,91 +457,6 @@ class Polarimeter(FastPath, Sensor):
         )
         return raw, truth
 
-    def _bubbles(self) -> bubbles_mod.BubblePopulation | None:
-        """This sea's bubble population, or None (ideal, a flat sea, or a tank: no breakers)."""
-        o = self.optics
-        if o.bubbles == "ideal" or o.wind_speed_mps <= 0.0 or self.tank is not None:
-            return None
-        return bubbles_mod.BubblePopulation(o.wind_speed_mps)
-
-    def _particles(self) -> particles_mod.MarineSnow | None:
-        """The water's marine snow, or None (ideal, or a tank: tap water and milk have none)."""
-        if self.optics.particles == "ideal" or self.tank is not None:
-            return None
-        return particles_mod.MarineSnow()
-
-    def _add_points(
-        self,
-        st: FloatArray,
-        occluded: NDArray[np.bool_],
-        c_cn: NDArray[np.float64],
-        depth_m: float,
-        sun: Any,
-        kind: str,
-    ) -> int:
-        """Draw this frame's bubbles or aggregates; add each to its pixel's S0 (photons/s).
-
-        An unresolved point of intensity I at range r reads as the radiance I/(r² Ω) in a pixel
-        of solid angle Ω (outside the housing; :mod:`sensors.polarimeter.optics.bubbles`).
-        Unpolarized:
-        S1 = S2 = 0 in any basis. Points on occluded pixels are dropped (the hull's shadow and
-        what lies behind it are not known). Returns how many were added.
-        """
-        if kind == "bubbles":
-            pop: Any = self._bubbles()
-            stream, g, albedo = self._bubble_rng, bubbles_mod.HG_G, 1.0
-        else:
-            pop = self._particles()
-            stream, g, albedo = self._particle_rng, particles_mod.HG_G, particles_mod.ALBEDO
-        if pop is None or depth_m <= 0.0 or stream is None:
-            return 0
-        draw = pop.draw(depth_m, stream)
-        if draw.radii_m.size == 0:
-            return 0
-        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
-        beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
-        sky = self.optics.sky
-        e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
-        assert self._column is not None
-        intensity, r = bubbles_mod.bubble_radiance(
-            draw, beam.look_dir, e_sun, self._column.water.c_per_m, g=g, albedo=albedo
-        )
-        if self._caustics is not None:  # the beam's caustics light the points too
-            cf, (x0, y0) = self._caustics
-            off = draw.offsets_m
-            intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)
-        dirs = (draw.offsets_m / r[:, None]) @ c_cn  # ENU → camera frame (rows: c_cnᵀ d)
-        u, v, ok = self.camera.project_outside(dirs, self.n_water)
-        h, w = self.camera.shape
-        col = np.rint(np.asarray(u)).astype(np.int64)
-        row = np.rint(np.asarray(v)).astype(np.int64)
-        ok = np.asarray(ok) & (col >= 0) & (col < w) & (row >= 0) & (row < h) & (intensity > 0)
-        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
-        ok = ~occluded[row, col]
-        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
-        omega = self._outside_solid_angle()[row, col]
-        add = intensity / (r * r * omega) * self._photon_scale
-        flat = st[..., 0].reshape(-1)
-        np.add.at(flat, row * w + col, add.astype(np.float32))
-        return int(col.size)
-
-    def _outside_solid_angle(self) -> NDArray[np.float64]:
-        """(H, W) each pixel's solid angle in the water, outside the housing.
-
-        A dome leaves the lens's rays unbent. Through a flat port the étendue n² cos θ dΩ is
-        conserved: Ω_out = Ω_lens cos θ_lens / (n² cos θ_out).
-        """
-        cam = self.camera
-        if self._omega_out is None or self._omega_out[0] != self.n_water:
-            sa = cam.pixel_solid_angle_sr.astype(np.float64)
-            if cam.spec.housing == "flat":
-                port = cam.outside(self.n_water)
-                cos_l = np.abs(cam.rays[..., 2].astype(np.float64))
-                cos_o = np.abs(port.directions[..., 2].astype(np.float64))
-                sa = sa * cos_l / np.maximum(self.n_water**2 * cos_o, 1e-9)
-            self._omega_out = (self.n_water, np.maximum(sa, 1e-12))
-        return self._omega_out[1]
-
     # ---- the physics chain ---------------------------------------------------------------------
     def render_stokes(
         self,
@@ -730,56 +643,8 @@ class Polarimeter(FastPath, Sensor):
         rays: FloatArray,
         depth_m: float,
     ) -> NDArray[np.bool_]:
-        """Pixels whose path to the sky is blocked by scene geometry (coarse grid, upsampled)."""
-        h, w = self.camera.shape
-        if world is None or not self.pspec.occlusion:
-            return np.zeros((h, w), dtype=bool)
-        k = self.pspec.occlusion_stride_px
-        sub = np.ascontiguousarray(rays[k // 2 :: k, k // 2 :: k], dtype=np.float64)
-        sh = sub.shape[:2]
-        vec = sub.reshape(-1, 3) @ c_cn.T  # ENU
-        nray = vec.shape[0]
-        geomid = np.full(nray, -1, dtype=np.int32)
-        dist = np.full(nray, -1.0, dtype=np.float64)
-        groups = np.zeros(6, dtype=np.uint8)
-        groups[list(self.pspec.occlusion_geomgroups)] = 1
-        # A ray is blocked when it meets geometry before the surface (in air: anywhere above).
-        up = vec[:, 2]
-        if depth_m > 0:
-            to_surface = np.where(up > 1e-6, depth_m / np.maximum(up, 1e-6), np.inf)
-            finite = to_surface[np.isfinite(to_surface)]
-            cutoff = float(min(finite.max(), 1e4)) if finite.size else 1e4
-        else:  # in air: anything in the way blocks the sky
-            to_surface = np.full(nray, np.inf)
-            cutoff = 1e4
-        # Cast from just outside the camera's own dome (the site sits inside that visual geom, which
-        # would stop every ray); a 2.5 cm parallax is negligible for occluders.
-        origin = np.asarray(pos, dtype=np.float64) + _DOME_CLEARANCE_M * c_cn[:, 2]
-        mujoco.mj_multiRay(
-            world.model,
-            world.data,
-            origin,
-            vec.reshape(-1),
-            groups,
-            1,
-            -1,
-            geomid,
-            dist,
-            None,
-            nray,
-            max(cutoff, 1e-3),
-        )
-        # The sea-surface plane (a visual geom at z = 0) sits exactly at to_surface: a margin
-        # keeps it from blocking its own sky.
-        blocked = (geomid >= 0) & (dist >= 0) & (dist < 0.999 * to_surface - 0.01)
-        blocked = blocked.reshape(sh)
-        # Nearest-neighbour upsampling back to the frame: pixel (r, c) takes sample
-        # (min(r // k, rows − 1), min(c // k, cols − 1)). Repeating k times along each axis and
-        # padding with the last row and column is that map (a tenth of the fancy index's time).
-        up = blocked.repeat(k, axis=0).repeat(k, axis=1)[:h, :w]
-        if up.shape != (h, w):
-            up = np.pad(up, ((0, h - up.shape[0]), (0, w - up.shape[1])), mode="edge")
-        return up
+        """Pixels blocked from the sky (:func:`sensors.polarimeter.occlusion.occlusion_mask`)."""
+        return occlusion_mask(world, self.pspec, self.camera.shape, pos, c_cn, rays, depth_m)
 
     def describe(self) -> dict[str, Any]:
         d = super().describe()

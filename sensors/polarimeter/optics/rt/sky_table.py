@@ -152,7 +152,7 @@ class SkyTable:
 
     @functools.cached_property
     def smooth(self) -> FloatArray:
-        """:attr:`field` with the rings at the zenith and the nadir made smooth (:func:`poles.smooth`)."""
+        """:attr:`field`, its rings at the poles made smooth (:func:`poles.smooth`)."""
         return smooth(self.field, self.field.shape[3])
 
     @functools.cached_property
