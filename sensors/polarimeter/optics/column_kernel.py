@@ -24,7 +24,8 @@ import math
 import numpy as np
 from numba import njit
 
-from sensors.polarimeter.optics.rt.kernel import lut_index, meridian
+from sensors.polarimeter.optics.rt.kernel import lut_index
+from sensors.polarimeter.optics.rt.surface_kernel import meridian
 
 
 @njit(cache=True, inline="always")
@@ -225,7 +226,7 @@ def fresnel_up_meridian(cos_i, n_water, si, sq, su):
     In the meridian references of the incident and the reflected light. The plane of incidence of
     a flat sea is the vertical plane through the light's direction, so both meridian references
     lie in it: each is the p-axis up to its sign (turned by π, which leaves Q and U as they are),
-    and the reference's general chain (``rt.kernel._reflect_from_below``: into the p-basis,
+    and the reference's general chain (``rt.surface_kernel.reflect_from_below``: into the p-basis,
     Fresnel, back into the meridian, two atan2-sized rotations) reduces to the
     Fresnel Mueller matrix itself; ``tests/sensors/polarimeter/test_column_kernel.py`` checks the
     two agree. Inside the window (cos_i above the critical cosine) there is no total reflection,

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from sensors.polarimeter.optics.column_kernel import fresnel_up_meridian
-from sensors.polarimeter.optics.rt.kernel import _reflect_from_below, meridian
+from sensors.polarimeter.optics.rt.surface_kernel import meridian, reflect_from_below
 
 N_WATER = 1.339
 
@@ -15,7 +15,7 @@ N_WATER = 1.339
 def _general(dx, dy, dz, si, sq, su):
     """The reference's reflection: meridian → p-basis → Fresnel → the reflected light's meridian."""
     rx, ry, rz = meridian(dx, dy, dz)
-    ni, nq, nu, nv, ndz, nrx, nry, nrz, _ = _reflect_from_below(
+    ni, nq, nu, nv, ndz, nrx, nry, nrz, _ = reflect_from_below(
         dx, dy, dz, rx, ry, rz, si, sq, su, 0.0, N_WATER
     )
     mx, my, mz = meridian(dx, dy, ndz)
