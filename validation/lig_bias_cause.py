@@ -29,7 +29,8 @@ import numpy as np
 
 import sensors
 from sensors.polarimeter.optics import water as wa
-from sensors.polarimeter.optics.sky import CIE_SKY_TYPES, SkySpec
+from sensors.polarimeter.optics.cie import CIE_SKY_TYPES
+from sensors.polarimeter.optics.sky import SkySpec
 from sensors.polarimeter.render import OpticsConfig
 from twin.onboard.compass.base import CompassContext
 from twin.onboard.compass.lig import LigCompass, LigPaperCompass

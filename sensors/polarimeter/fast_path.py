@@ -25,7 +25,7 @@ from sensors.polarimeter import chain_kernel
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
-from sensors.polarimeter.optics.sky import sun_vector as sky_vector
+from sensors.polarimeter.optics.sun import sun_vector as sky_vector
 from sensors.polarimeter.unit import camera as camera_mod
 from sensors.polarimeter.unit import port as port_mod
 from twin.core.arrays import FloatArray

@@ -12,7 +12,8 @@ at zenith angle Z_s::
     φ(Z) = 1 + a exp(b / cos Z)        gradation  (φ(90°) = 1)              (CIE eq. 2)
     f(χ) = 1 + c [exp(d χ) − exp(d π/2)] + e cos² χ     indicatrix          (CIE eq. 3)
 
-with (a, b, c, d, e) of the 15 sky types in :data:`CIE_SKY_TYPES`. The model is photometric
+with (a, b, c, d, e) of the 15 sky types in :data:`sensors.polarimeter.optics.cie.CIE_SKY_TYPES`
+(the formulas point by point: :mod:`~sensors.polarimeter.optics.cie`). The model is photometric
 (luminance); it is used here as the angular shape of the spectral radiance at one wavelength.
 
 **Absolute scale** (the sensor stage needs photons): ``I`` is spectral radiance in
@@ -31,7 +32,8 @@ Polarization
 * ``"rayleigh"``: single scattering, DoP = DoP_max sin²γ / (1 + cos²γ) with γ the sun–point angle,
   E-vector ∝ s × p (optics.md §1.1; MOI paper eqs. 9–15).
 * ``"berry"``: Berry, Dennis & Lee (2004), New J. Phys. 6:162, the complex four-neutral-point model
-  (optics.md §1.2). With ζ = tan(θ/2) e^{iφ} (stereographic; φ counter-clockwise from East)::
+  (optics.md §1.2; :mod:`~sensors.polarimeter.optics.berry`). With ζ = tan(θ/2) e^{iφ}
+  (stereographic; φ counter-clockwise from East)::
 
       ζ_Bab = tan((θ_s − δ/2)/2) e^{iφ_s},   ζ_Bre = tan((θ_s + δ/2)/2) e^{iφ_s},
       ζ_Ara = −1/conj(ζ_Bre),                ζ_4th = −1/conj(ζ_Bab),
@@ -99,36 +101,16 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import chndtr
 
 from sensors.polarimeter import stokes as stokes_mod
+from sensors.polarimeter.optics.berry import BerryFrame, berry_block
 from sensors.polarimeter.optics.blocks import arccos_into, exp_into, is_rotation
-from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition
+from sensors.polarimeter.optics.cie import CIE_SKY_TYPES, NO_DISC_TYPES
+from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, sun_vector
 from twin.core.arrays import FloatArray
 
 Polarization = Literal["rayleigh", "berry"]
 #: The polarization models (the scenario's ``optics.sky_polarization``).
 POLARIZATIONS: tuple[str, ...] = ("rayleigh", "berry")
 
-#: CIE standard general sky types: type -> (a, b, c, d, e, description). CIE S 011/E:2003 Table 1
-#: (as reproduced in optics.md §1.5).
-CIE_SKY_TYPES: dict[int, tuple[float, float, float, float, float, str]] = {
-    1: (4.0, -0.70, 0.0, -1.0, 0.00, "CIE standard overcast, steep gradation, azimuthal unif."),
-    2: (4.0, -0.70, 2.0, -1.5, 0.15, "overcast, steep gradation, slight brightening towards sun"),
-    3: (1.1, -0.80, 0.0, -1.0, 0.00, "overcast, moderately graded, azimuthal uniformity"),
-    4: (1.1, -0.80, 2.0, -1.5, 0.15, "overcast, moderately graded, slight brightening to sun"),
-    5: (0.0, -1.00, 0.0, -1.0, 0.00, "sky of uniform luminance"),
-    6: (0.0, -1.00, 2.0, -1.5, 0.15, "partly cloudy, no gradation, slight brightening to sun"),
-    7: (0.0, -1.00, 5.0, -2.5, 0.30, "partly cloudy, no gradation, brighter circumsolar"),
-    8: (0.0, -1.00, 10.0, -3.0, 0.45, "partly cloudy, no gradation, distinct solar corona"),
-    9: (-1.0, -0.55, 2.0, -1.5, 0.15, "partly cloudy, obscured sun"),
-    10: (-1.0, -0.55, 5.0, -2.5, 0.30, "partly cloudy, brighter circumsolar"),
-    11: (-1.0, -0.55, 10.0, -3.0, 0.45, "white-blue sky, distinct solar corona"),
-    12: (-1.0, -0.32, 10.0, -3.0, 0.45, "CIE standard clear sky, low turbidity"),
-    13: (-1.0, -0.32, 16.0, -3.0, 0.30, "CIE standard clear sky, polluted"),
-    14: (-1.0, -0.15, 16.0, -3.0, 0.30, "cloudless turbid, broad corona"),
-    15: (-1.0, -0.15, 24.0, -2.8, 0.15, "white-blue turbid, broad corona"),
-}
-
-#: Sky types whose sun is hidden: no solar disc unless ``sun_relative_radiance`` is given.
-_NO_DISC_TYPES = frozenset({1, 2, 3, 4, 9})
 
 _CHUNK = 16384
 _PLANCK_H = 6.62607015e-34
@@ -188,7 +170,7 @@ class SkySpec:
         """Radiance of the solar disc (same units as ``zenith_radiance``)."""
         rel = self.sun_relative_radiance
         if rel is None:
-            rel = 0.0 if self.cie_type in _NO_DISC_TYPES else 4e5
+            rel = 0.0 if self.cie_type in NO_DISC_TYPES else 4e5
         return rel * self.zenith_radiance
 
 
@@ -203,102 +185,6 @@ def _check_range(field: str, value: float, lo: float, hi: float, *, hi_open: boo
 def photon_radiance(radiance_w: ArrayLike, wavelength_nm: float) -> FloatArray:
     """Spectral radiance W m⁻² sr⁻¹ nm⁻¹ → photons s⁻¹ m⁻² sr⁻¹ nm⁻¹ (E = hc/λ)."""
     return np.asarray(radiance_w) * (wavelength_nm * 1e-9 / (_PLANCK_H * _LIGHT_C))
-
-
-# --------------------------------------------------------------------------------------------------
-# Sun handling
-# --------------------------------------------------------------------------------------------------
-
-
-def sun_vector(sun: SunPosition | ArrayLike) -> NDArray[np.float64]:
-    """The validated ENU unit vector towards the sun, from a :class:`SunPosition` or a 3-vector."""
-    s = np.asarray(sun.direction_enu if isinstance(sun, SunPosition) else sun, dtype=np.float64)
-    if s.shape != (3,) or not np.all(np.isfinite(s)):
-        raise ValueError(f"sun direction must be a finite 3-vector (one instant), got {s!r}")
-    if abs(float(np.linalg.norm(s)) - 1.0) > 1e-6:
-        raise ValueError(
-            f"sun direction must be a unit vector (|s| = 1 within 1e-6), got |s| = "
-            f"{float(np.linalg.norm(s))!r}"
-        )
-    return s
-
-
-def is_night(sun: SunPosition | ArrayLike) -> bool:
-    """Whether the sun's apparent elevation is below the night threshold (sun.py)."""
-    s = sun_vector(sun)
-    return bool(s[2] < math.sin(NIGHT_ELEVATION_RAD))
-
-
-# --------------------------------------------------------------------------------------------------
-# Point-wise models (the formulas; also the oracles for the fast path in tests)
-# --------------------------------------------------------------------------------------------------
-
-
-def cie_gradation(cos_z: FloatArray, a: float, b: float) -> FloatArray:
-    """CIE gradation φ(Z) = 1 + a exp(b / cos Z) (CIE eq. 2); φ = 1 at and below the horizon."""
-    cz = np.asarray(cos_z)
-    if a == 0.0:
-        return np.ones_like(cz)
-    # b < 0: exp(b / cz) → 0 as cz → 0⁺; clamping cz keeps the horizon finite and exact (φ = 1).
-    return 1.0 + a * np.exp(b / np.maximum(cz, 1e-30))
-
-
-def cie_indicatrix(cos_chi: FloatArray, c: float, d: float, e: float) -> FloatArray:
-    """CIE scattering indicatrix f(χ) = 1 + c[exp(dχ) − exp(dπ/2)] + e cos²χ (CIE eq. 3)."""
-    cc = np.clip(np.asarray(cos_chi), -1.0, 1.0)
-    out = 1.0 + e * cc * cc
-    if c != 0.0:
-        out = out + c * (np.exp(d * np.arccos(cc)) - math.exp(d * math.pi / 2))
-    return out
-
-
-def cie_relative_radiance(dirs: ArrayLike, sun_dir: ArrayLike, cie_type: int) -> FloatArray:
-    """L/L_z of the CIE standard general sky type for ENU sky directions (CIE eq. 1).
-
-    Directions below the horizon get φ = 1 (the horizon value); callers mask them.
-    """
-    if cie_type not in CIE_SKY_TYPES:
-        raise ValueError(f"cie_type must be an integer 1..15, got {cie_type!r}")
-    a, b, c, d, e = CIE_SKY_TYPES[cie_type][:5]
-    p = np.asarray(dirs)
-    s = sun_vector(sun_dir)
-    norm = float(cie_indicatrix(np.float64(s[2]), c, d, e) * cie_gradation(np.float64(1.0), a, b))
-    cos_chi = p @ s.astype(p.dtype)
-    return cie_indicatrix(cos_chi, c, d, e) * cie_gradation(p[..., 2], a, b) / norm
-
-
-@dataclass(frozen=True, slots=True)
-class BerryPoints:
-    """Berry's four neutral points as ENU unit vectors (some may lie below the horizon)."""
-
-    babinet: NDArray[np.float64]
-    brewster: NDArray[np.float64]
-    arago: NDArray[np.float64]
-    fourth: NDArray[np.float64]
-
-
-def _sun_angles(s: NDArray[np.float64]) -> tuple[float, float]:
-    """(zenith angle, ENU azimuth counter-clockwise from East) of the sun vector."""
-    return math.atan2(math.hypot(s[0], s[1]), s[2]), math.atan2(s[1], s[0])
-
-
-def berry_neutral_points(sun_dir: SunPosition | ArrayLike, delta_rad: float) -> BerryPoints:
-    """The four neutral points of Berry's model (optics.md §1.2).
-
-    Babinet at zenith angle θ_s − δ/2 and Brewster at θ_s + δ/2 on the solar meridian; Arago and the
-    fourth point are their antipodes.
-    """
-    s = sun_vector(sun_dir)
-    theta_s, phi_s = _sun_angles(s)
-
-    def on_meridian(theta: float) -> NDArray[np.float64]:
-        return np.array(
-            [math.sin(theta) * math.cos(phi_s), math.sin(theta) * math.sin(phi_s), math.cos(theta)]
-        )
-
-    bab = on_meridian(theta_s - delta_rad / 2)
-    bre = on_meridian(theta_s + delta_rad / 2)
-    return BerryPoints(bab, bre, -bre, -bab)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -466,24 +352,9 @@ class _FrameConstants:
         self.dop_max = spec.dop_max
         self.disc = spec.sun_disc_radiance
         self.r_sun = spec.sun_radius_rad
-        if spec.polarization == "berry":
-            theta_s, phi_s = _sun_angles(s)
-            t_bab = math.tan((theta_s - spec.berry_delta_rad / 2) / 2)
-            t_bre = math.tan((theta_s + spec.berry_delta_rad / 2) / 2)
-            self.cos_phi_s, self.sin_phi_s = math.cos(phi_s), math.sin(phi_s)
-            sign = (1.0 if t_bab >= 0 else -1.0) * (1.0 if t_bre >= 0 else -1.0)
-            # W = w e^{-2iφ_s}: the e^{iφ_s} of each finite-form factor cancels the e^{-2iφ_s}.
-            self.berry_k = -4.0 * sign / ((1.0 + t_bab**2) * (1.0 + t_bre**2))
-            # In ξ = ζ e^{-iφ_s} (sun on the real axis) the four factors are the real quartic
-            # P(ξ) = (ξ − t_Bab)(ξ − t_Bre)(1 + t_Bab ξ)(1 + t_Bre ξ) = Σ c_k ξ^k:
-            s_sum, p_prod = t_bab + t_bre, t_bab * t_bre
-            self.berry_poly = (  # c4, c3, c2, c1, c0 (Horner order)
-                p_prod,
-                s_sum * (1.0 - p_prod),
-                1.0 - s_sum**2 + p_prod**2,
-                -s_sum * (1.0 - p_prod),
-                p_prod,
-            )
+        self.berry = (
+            BerryFrame.of(s, spec.berry_delta_rad) if spec.polarization == "berry" else None
+        )
 
 
 def _evaluate_block(
@@ -561,7 +432,8 @@ def _evaluate_block(
         a *= 2.0
         np.multiply(a, rho2, out=out[2])
     else:
-        _berry_block(ctx, x, y, z, rad * ctx.scale, out)
+        assert ctx.berry is not None
+        berry_block(ctx.berry, ctx.dop_max, x, y, z, rad * ctx.scale, out)
 
     # --- solar disc and horizon --------------------------------------------------------------
     np.multiply(rad, ctx.scale, out=out[0])
@@ -570,49 +442,6 @@ def _evaluate_block(
     if z.min() < 0.0:
         below = np.flatnonzero(z < 0.0)
         out[:, below] = 0.0
-
-
-def _berry_block(
-    ctx: _FrameConstants,
-    x: FloatArray,
-    y: FloatArray,
-    z: FloatArray,
-    rad: FloatArray,
-    out: FloatArray,
-) -> None:
-    """Berry et al. 2004 Stokes (meridian frame) for one block (module docstring).
-
-    With ξ = ζ e^{−iφ_s}, W = w e^{−2iφ_s} = K e^{2iφ_s} P(ξ) / (1 + |ξ|²)², K the constant
-    −4 sgn(t_Bab) sgn(t_Bre) / ((1 + t_Bab²)(1 + t_Bre²)). The E-vector angle ψ from the meridian
-    reference (towards d × ref) has e^{2iψ} = conj(W) ζ² / (|W| |ζ|²) (the ζ-plane is conformal,
-    its radial direction is the meridian, and the reference points to the zenith, against the
-    radial: ψ = φ − AoP_ζ), so Q + iU = I DoP_max · K P(ξ̄) ξ² / (|ξ|² (1+|ξ|²)² (2 − |W|)):
-    the |W| of the DoP cancels and the e^{±2iφ_s} drop out.
-    """
-    cdt = np.complex64 if x.dtype == np.float32 else np.complex128
-    inv = 1.0 / (1.0 + np.maximum(z, 0.0))
-    cs, sn = ctx.cos_phi_s, ctx.sin_phi_s
-    xi_c = np.empty(x.shape, dtype=cdt)  # ξ̄ = conj(ζ) e^{iφ_s}
-    xi_c.real = (x * cs + y * sn) * inv
-    xi_c.imag = (x * sn - y * cs) * inv
-    c4, c3, c2, c1, c0 = ctx.berry_poly
-    poly = xi_c * c4  # Horner: P(ξ̄) = conj(P(ξ)) (real coefficients)
-    for c in (c3, c2, c1):
-        poly += c
-        poly *= xi_c
-    poly += c0
-    mod2 = xi_c.real * xi_c.real + xi_c.imag * xi_c.imag  # |ξ|²
-    one_plus2 = (1.0 + mod2) ** 2
-    abs_w = np.minimum(np.abs(poly) * (abs(ctx.berry_k) / one_plus2), 1.0)
-    xi2 = np.conjugate(xi_c * xi_c)  # ξ²
-    zen = mod2 == 0.0
-    if np.any(zen):  # exact zenith, reference North: ζ²/|ζ|² → −1, i.e. ξ²/|ξ|² → −e^{−2iφ_s}
-        xi2[zen] = -(complex(cs, -sn) ** 2)
-        mod2[zen] = 1.0
-    pol = poly * xi2
-    amp = (ctx.dop_max * ctx.berry_k) * rad / (mod2 * one_plus2 * (2.0 - abs_w))
-    np.multiply(amp, pol.real, out=out[1])
-    np.multiply(amp, pol.imag, out=out[2])
 
 
 def _add_sun_disc(

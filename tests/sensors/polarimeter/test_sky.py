@@ -6,14 +6,9 @@ import numpy as np
 import pytest
 
 from sensors.polarimeter import stokes
-from sensors.polarimeter.optics.sky import (
-    CIE_SKY_TYPES,
-    SkySpec,
-    berry_neutral_points,
-    cie_relative_radiance,
-    photon_radiance,
-    sky_radiance,
-)
+from sensors.polarimeter.optics.berry import berry_neutral_points
+from sensors.polarimeter.optics.cie import CIE_SKY_TYPES, cie_relative_radiance
+from sensors.polarimeter.optics.sky import SkySpec, photon_radiance, sky_radiance
 from sensors.polarimeter.optics.sun import direction_from_zenith_azimuth
 from sensors.polarimeter.unit.camera import SENSOR_PROPAGATION, SENSOR_REFERENCE, Camera
 from sensors.polarimeter.unit.fisheye import preset
