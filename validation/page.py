@@ -1,10 +1,11 @@
 """docs/validation.md, generated: one section per claim, every number read from a results file.
 
-The claims (what was checked against what) are declared in ``page_claims.py``; each one reads
-its numbers from the files the validation studies, the campaigns, the benchmarks and
-``validation/checks.py`` wrote, and names the commit and date that made them. Nothing here
-runs a study: regenerating the page after a study is cheap, and ``tests/test_docs.py`` fails when
-the checked-in page is not what this writes from the checked-in results.
+The claims (what was checked against what) are declared in ``page_claims.py``; their numbers are
+read by ``page_numbers.py`` from the files the validation studies, the campaigns, the benchmarks
+and ``validation/checks.py`` wrote, and each source is named with the commit and date that made
+it. Nothing here runs a study: regenerating the page after a study is cheap, and
+``tests/test_docs.py`` fails when the checked-in page is not what this writes from the
+checked-in results.
 
     python validation/page.py            # writes docs/validation.md
     python validation/page.py --check    # exit 1 when docs/validation.md is not current

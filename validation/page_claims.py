@@ -1,543 +1,36 @@
 """The claims of docs/validation.md: what was checked, and where each number is read from.
 
 A claim's ``checked`` text names the reference and its source; numbers measured by the twin
-appear only through ``body``, which reads them from a results file (see page.py). Add a claim
-here after the study that backs it has written its results.
+appear only through its body (page_numbers.py), which reads them from a results file (page.py).
+Add a claim here after the study that backs it has written its results.
 """
 
 from __future__ import annotations
 
-import math
-from collections import defaultdict
-
-from page import Claim, Results, g, md_table, pct, pick
-
-CHECKS = "validation/results/checks.json"
-CAMPAIGNS = "validation/results/campaigns"
-
-
-def _one(r: Results, key: str) -> float:
-    (value,) = r.measured(key)
-    return value
-
-
-def _max_abs(r: Results, key: str) -> float:
-    return max(abs(v) for v in r.measured(key))
-
-
-# ---- the vehicle --------------------------------------------------------------------------------
-
-
-def _top_speed(r: Results) -> list[str]:
-    return [
-        f"- steady speed at 1525 rpm, ρ = 1026 kg/m³: {_one(r, 'top_speed_1525rpm_mps'):.2f} m/s"
-    ]
-
-
-def _righting(r: Results) -> list[str]:
-    return [
-        f"- measured period {_one(r, 'righting_period_s'):.3f} s; the linearised model's "
-        f"{_one(r, 'righting_period_model_s'):.3f} s"
-    ]
-
-
-def _turn_cruise(r: Results) -> list[str]:
-    return [
-        f"- turning radius {_one(r, 'turn_1p5mps_radius_m'):.2f} m; the independent "
-        f"integration's {_one(r, 'turn_1p5mps_radius_reference_m'):.2f} m",
-        "- yaw rate at 2, 5, 10, 60 and 110 s: at most "
-        f"{pct(_one(r, 'turn_1p5mps_yaw_rate_max_rel_diff'))} from the integration's",
-    ]
-
-
-def _turn_full(r: Results) -> list[str]:
-    d = r.json("validation/results/turning_vs_pvs.json")
-    rows = []
-    for label, key in (
-        ("twin", "twin"),
-        ("twin with PVS's two modelling choices", "twin, PVS choices"),
-        ("PythonVehicleSimulator", "pvs"),
-    ):
-        x = d[key]
-        rows.append(
-            [
-                label,
-                f"{x['turn_diameter_m']:.1f}",
-                f"{x['yaw_rate_deg_s']:.2f}",
-                f"{x['turn_heel_deg']:.2f}",
-                f"{x['straight_heel_deg']:.2f}",
-                f"{x['straight_speed_mps']:.3f}",
-            ]
-        )
-    return md_table(
-        [
-            "model",
-            "diameter (m)",
-            "yaw rate (°/s)",
-            "heel in the turn (°)",
-            "heel straight (°)",
-            "speed straight (m/s)",
-        ],
-        rows,
-    )
-
-
-def _heel(r: Results) -> list[str]:
-    return [
-        f"- 1525 rpm: {_one(r, 'heel_1525rpm_deg'):.2f}° measured, "
-        f"{_one(r, 'heel_1525rpm_closed_form_deg'):.2f}° from W z_g sin φ = Q"
-    ]
-
-
-def _rest(r: Results) -> list[str]:
-    return [
-        f"- depth change after 60 s: {g(_one(r, 'rest_60s_depth_change_m'))} m; horizontal "
-        f"drift {g(_one(r, 'rest_60s_horizontal_drift_m'))} m"
-    ]
-
-
-def _current(r: Results) -> list[str]:
-    return [
-        "- horizontal velocity after 120 s within "
-        f"{g(_one(r, 'current_drift_velocity_error_mps'))} m/s of the current's"
-    ]
-
-
-def _plant_rtf(r: Results) -> list[str]:
-    d = r.json("benchmarks/results/plant_rtf.json")
-    return [
-        f"- the plant alone: {d['plant']['rtf']:.0f}× real time ({d['plant']['us_per_step']:.0f} µs"
-        f" a 10 ms step); a full run with sensors and recording {d['full_run']['rtf']:.0f}×"
-        f" ({d['machine']})"
-    ]
-
-
-# ---- sensors and optics -------------------------------------------------------------------------
-
-
-def _imu(r: Results) -> list[str]:
-    return [
-        "- white noise σ against density × √rate, every axis: within "
-        f"{pct(_one(r, 'imu_white_std_vs_spec_max_rel'))}",
-        "- Allan deviation at τ = 1 s against the ARW and VRW: "
-        f"{pct(_one(r, 'imu_allan_1s_vs_spec_min_abs_rel'))} to "
-        f"{pct(_one(r, 'imu_allan_1s_vs_spec_max_abs_rel'))} (300 s at 100 Hz)",
-    ]
-
-
-def _snell_window(r: Results) -> list[str]:
-    data = r.json(CHECKS)["measured"]
-    rows = []
-    for key in sorted(k for k in data if k.startswith("snell_half_angle_deg[")):
-        rows.append([key.split("[", 1)[1].rstrip("]"), f"{data[key][0]:.2f}"])
-    return md_table(["water (salinity S, wavelength)", "half-angle (°)"], rows)
-
-
-def _sky(r: Results) -> list[str]:
-    return [
-        "- Rayleigh sky through the MOI pinhole camera against the paper's eqs. 9–25, 6 suns and"
-        f" attitudes: DoP within {g(_max_abs(r, 'sky_rayleigh_vs_moi_dop_max_abs'), 2)}, AoP "
-        f"within {g(_max_abs(r, 'sky_rayleigh_vs_moi_aop_max_abs_rad'), 2)} rad",
-        "- Berry's sky with δ = 0 against Rayleigh's, 4 suns: Stokes within "
-        f"{g(_max_abs(r, 'sky_berry0_vs_rayleigh_max_abs'), 2)}",
-    ]
-
-
-def _stokes(r: Results) -> list[str]:
-    return [
-        "- super-pixel Stokes against polanalyser's `calcStokes`: within "
-        f"{g(_one(r, 'stokes_superpixel_vs_polanalyser_max_abs_dn'), 2)} DN",
-        "- demosaiced (bilinear) against polanalyser's demosaicing, interior: within "
-        f"{g(_max_abs(r, 'stokes_demosaiced_vs_polanalyser_max_abs_dn'), 2)} DN",
-    ]
-
-
-def _aop_noise(r: Results) -> list[str]:
-    bare = r.measured("aop_noise_vs_bare_law_rel")
-    full = r.measured("aop_noise_vs_full_law_rel")
-    return [
-        f"- σ_AoP against 1/(2P√S0): {', '.join(f'{v:+.1%}' for v in bare)} "
-        "(two fields, 128×128 super-pixels each)",
-        "- against the law with read noise, quantization and diattenuation: "
-        f"{', '.join(f'{v:+.1%}' for v in full)}",
-    ]
-
-
-def _lightfield(r: Results) -> list[str]:
-    rows = r.table("validation/results/lightfield_reference.md", "K_d against Jerlov")
-    d = r.json("validation/results/lightfield_reference.json")
-    energy = d["validation"]["energy"]
-    after = r.table("validation/results/renderer_vs_reference.md", "ring by ring")
-    worst = 0.0
-    for row in after:
-        if row["run"].startswith("2 "):
-            for key, cell in row.items():
-                if key.endswith("°"):
-                    worst = max(worst, abs(float(cell.split("±")[0].strip().rstrip("%"))))
-    fast = r.json("validation/results/fast_path_error.json")["rows"]
-    return [
-        *md_table(
-            ["Jerlov type", "K_d reference (1/m)", "K_d Jerlov (1/m)", "ratio", "a, b from"],
-            pick(rows, ["type", "K_d reference", "K_d Jerlov", "ratio", "a, b from"]),
-        ),
-        "",
-        "- K_d outside ±10 % of Jerlov's: "
-        + ", ".join(x["type"] for x in rows if abs(float(x["ratio"]) - 1.0) > 0.10)
-        + " (docs/polarimeter.md gives each water's a, b and its source)",
-        f"- energy closes to {g(energy['max_flux_imbalance'], 2)} "
-        f"({d['photons']:,} histories a case)",
-        f"- the renderer against the reference, ring by ring 2–90° from the refracted sun, five "
-        f"cases at and between the table's nodes: within ±{worst:.1f} %",
-        "- the fast path against the exact chain, S0 in Snell's window, "
-        f"{len(fast)} scenes: {min(x['s0_window'] for x in fast):.1%}–"
-        f"{max(x['s0_window'] for x in fast):.1%}",
-    ]
-
-
-def _sensitivity(r: Results) -> list[str]:
-    rows = r.table("validation/results/optics_sensitivity.md", "Sensitivity")
-    by_setting: dict[str, list[dict[str, str]]] = defaultdict(list)
-    for row in rows:
-        by_setting[row["setting"]].append(row)
-    base = {(x["water"], x["depth (m)"]): x for x in next(iter(by_setting.values()))}
-    out = []
-    for setting, cells in list(by_setting.items())[1:]:
-        moves = {"POL zenith": 0.0, "LIG zenith, the paper's method": 0.0, "window DoP max": 0.0}
-        for x in cells:
-            b = base.get((x["water"], x["depth (m)"]))
-            if b is None:
-                continue
-            for k in moves:
-                moves[k] = max(moves[k], abs(float(x[k]) - float(b[k])))
-        out.append(
-            [
-                setting,
-                f"{moves['POL zenith']:.2f}°",
-                f"{moves[next(iter(list(moves)[1:]))]:.2f}°",
-                f"{moves['window DoP max']:.3f}",
-            ]
-        )
-    return md_table(
-        ["input changed", "POL zenith moves ≤", "paper's LIG zenith moves ≤", "window DoP moves ≤"],
-        out,
-    )
-
-
-def _sea_surface(r: Results) -> list[str]:
-    d = r.json("validation/results/sea_surface_light.json")
-    pop = d["population"]
-    return [
-        f"- at the surface under 13 m/s: void fraction {g(pop['void_fraction_13mps'], 2)}, "
-        f"b = {pop['b_13mps_per_m']:.3f} /m (measured under breaking seas: ~1e-6 and a few "
-        "1e-2 /m, Vagle & Farmer 1992; Terrill, Melville & Stramski 2001)",
-        f"- bubbles drawn a frame at 0.98 m under 8.5 m/s: {d['drawn']['8.5']['0.98']:.0f}; "
-        f"pixels they make ≥ 2× brighter: {d['outliers']['8.5']['0.98']:.1f} "
-        f"({d['outliers']['12.3']['0.98']:.0f} under 12.3 m/s)",
-        "",
-        *md_table(
-            ["wind (m/s)", "caustic CV / max at 0.5 m", "1.0 m", "2.6 m", "5.0 m", "10.0 m"],
-            [
-                [w, *(f"{cv:.2f} / {mx:.1f}" for cv, mx in d["caustics"][w].values())]
-                for w in d["caustics"]
-            ],
-        ),
-    ]
-
-
-# ---- compass methods ----------------------------------------------------------------------------
-
-
-def _pooled(rows: list[dict[str, str]], variant: str, **where: str) -> tuple[float, int]:
-    """Run-weighted mean of a campaign's per-group means, and the number of runs."""
-    total, n = 0.0, 0
-    for row in rows:
-        if row["variant"] != variant or any(row[f"param.{k}"] != v for k, v in where.items()):
-            continue
-        k = int(row["n"])
-        if k:
-            total += float(row["mean"]) * k
-            n += k
-    return (total / n if n else math.nan), n
-
-
-def _moi_noise(r: Results) -> list[str]:
-    rows = r.csv(f"{CAMPAIGNS}/moi_noise/groups.csv")
-    cases = sorted({x["param.case"] for x in rows})
-    out = []
-    for variant in ("moi", "patz", "ht"):
-        cells = []
-        for case in cases:
-            sel = [x for x in rows if x["variant"] == variant and x["param.case"] == case]
-            worst = max(sel, key=lambda x: float(x["mean"]))
-            cells.append(
-                f"{g(float(worst['mean']), 2)} [{g(float(worst['mean_lo']), 2)}, "
-                f"{g(float(worst['mean_hi']), 2)}] at {float(worst['param.elevation_deg']):.0f}°"
-            )
-        out.append([variant.upper(), *cells])
-    return md_table(["method", *(f"{c}: worst elevation's mean error (°)" for c in cases)], out)
-
-
-def _snell_attitude(r: Results) -> list[str]:
-    yaw = r.csv(f"{CAMPAIGNS}/snell_attitude/groups.csv")
-    roll = r.csv(f"{CAMPAIGNS}/snell_attitude/roll_error_deg/groups.csv")
-    pitch = r.csv(f"{CAMPAIGNS}/snell_attitude/pitch_error_deg/groups.csv")
-    total = sum(int(x["n"]) for x in yaw if x["variant"] == "roia") // 2
-    out = []
-    for preset in ("phx050s_p_bin4", "phx050s_p"):
-        for variant, label in (("snell_paper", "the paper's"), ("snell", "the twin's")):
-            rr, n = _pooled(roll, variant, preset=preset)
-            pp, _ = _pooled(pitch, variant, preset=preset)
-            yy, _ = _pooled(yaw, variant, preset=preset)
-            out.append([preset, label, f"{rr:.1f}", f"{pp:.1f}", f"{yy:.0f}", f"{n} of {total}"])
-    return [
-        *md_table(
-            [
-                "camera",
-                "method",
-                "roll MAE (°)",
-                "pitch MAE (°)",
-                "yaw MAE (°)",
-                "frames with a fix",
-            ],
-            out,
-        ),
-        "",
-        "Pooled over the tilts, weighted by each cell's fixes; each cell's 95 % interval is in the"
-        " report. The paper reports 0.75 / 0.62 / 0.53° in a clear-water tank (xin2024 Table 1).",
-    ]
-
-
-def _compass_underwater(r: Results) -> list[str]:
-    zen = r.csv(f"{CAMPAIGNS}/compass_underwater/zenith_bias_deg/groups.csv")
-    az = r.csv(f"{CAMPAIGNS}/compass_underwater/groups.csv")
-    variants = (
-        ("pol_paper", "POL, paper"),
-        ("pol", "POL, twin"),
-        ("lig_paper", "LIG, paper"),
-        ("lig", "LIG, twin"),
-    )
-    cells: dict[tuple[str, str], dict[str, str]] = defaultdict(dict)
-    for row in zen:
-        lo, hi = float(row["mean_lo"]), float(row["mean_hi"])
-        cells[(row["param.jerlov_type"], row["param.depth_m"])][row["variant"]] = (
-            f"{float(row['mean']):+.1f} [{lo:+.1f}, {hi:+.1f}]"
-        )
-    order = ["I", "IA", "IB", "II", "III", "1C", "3C"]
-    keys = sorted(cells, key=lambda k: (order.index(k[0]) if k[0] in order else 99, float(k[1])))
-    keys = [k for k in keys if float(k[1]) in (1.0, 5.0, 20.0)]
-    rows = [
-        [w, f"{float(d):g}", *(cells[(w, d)].get(v, "—") for v, _ in variants)] for w, d in keys
-    ]
-    az_range = []
-    for v, label in variants:
-        means = [float(x["mean"]) for x in az if x["variant"] == v]
-        az_range.append(f"{label} {min(means):.2f}–{max(means):.2f}°")
-    n = {int(x["n"]) for x in zen}
-    return [
-        "Zenith bias of the apparent sun (°, + towards the horizon), mean [95 % CI] over "
-        f"{'/'.join(map(str, sorted(n)))} seeds a cell, at 1, 5 and 20 m (every depth in the "
-        "report):",
-        "",
-        *md_table(["water", "depth (m)", *(label for _, label in variants)], rows),
-        "",
-        "- azimuth mean absolute error, range over all cells: " + "; ".join(az_range),
-    ]
-
-
-HW = "validation/results/hardware_experiments.md"
-
-
-def _hardware(r: Results) -> list[str]:
-    turn = r.table(HW, "Snell-window attitude on a turntable")
-    turn = [x for x in turn if x["cell"] == "budget"]
-    roia = r.table(HW, "ROI-A static")
-    tank = r.table(HW, "milky tank")
-    sea = r.table(HW, "sea trials")
-    return [
-        "**Snell turntable** (xin2024 Table 1: 0.75 / 0.62 / 0.53°), the full error budget:",
-        "",
-        *md_table(
-            ["method", "roll MAE (°)", "pitch MAE (°)", "yaw MAE (°)"],
-            pick(turn, ["method", "roll MAE (°)", "pitch MAE (°)", "yaw MAE (°)"]),
-        ),
-        "",
-        "**ROI-A heading** (fang2024 §2.2–2.3):",
-        "",
-        *md_table(
-            ["case", "method", "twin RMSE (°)", "paper (°)", "twin ÷ paper"],
-            pick(roia, ["case", "method", "twin RMSE (°)", "paper (°)", "twin ÷ paper"]),
-        ),
-        "",
-        "**Milky tank** (hu2024 §4.2):",
-        "",
-        *md_table(
-            ["method", "quantity", "twin MAE (°)", "paper (°)", "twin ÷ paper"],
-            pick(tank, ["method", "quantity", "twin MAE (°)", "paper (°)", "twin ÷ paper"]),
-        ),
-        "",
-        "**Sea trials, heading RMSE** (hu2024 §4.3):",
-        "",
-        *md_table(list(sea[0]), [list(x.values()) for x in sea]),
-    ]
-
-
-def _paper_methods(r: Results) -> list[str]:
-    d = r.json("validation/results/paper_methods.json")
-    return [f"- {len(d['results'])} departures switched one at a time on {d['frames']} frames"]
-
-
-# ---- gravity ------------------------------------------------------------------------------------
-
-
-def _gravity(r: Results) -> list[str]:
-    rel = "validation/results/gravity_path_planning.md"
-    findings = r.table(rel, "The paper's findings over")
-    length = r.table(rel, "correlation length moves")
-    flown = r.table("validation/results/gravity_aided_twin.md", "planned route flown", index=2)
-    flown = [x for x in flown if x["matching"] == "on" or x["filter"] == "ins"]
-    return [
-        "**PCRB-A\\* on 10 drawn maps (5 km correlation length, an assumption), Q_t as printed:**",
-        "",
-        *md_table(
-            ["test, R (mGal)", "planned least", "planned − best other (km)", "lock lost, planned"],
-            pick(
-                findings,
-                [
-                    "test, R (mGal)",
-                    "planned least",
-                    "planned − best other (km)",
-                    "lock lost, planned",
-                ],
-            ),
-        ),
-        "",
-        "**How the assumed correlation length moves it** (sums of RMSE in km: planned / Direct /"
-        " least parallel path, and on how many maps the planned path was least):",
-        "",
-        *md_table(list(length[0]), [list(x.values()) for x in length]),
-        "",
-        "**The planned route flown by the twin** (16.5 km, navigation-grade INS):",
-        "",
-        *md_table(
-            ["matching", "steering on", "filter", "position RMSE (m)", "RMSE ÷ PCRB"],
-            pick(flown, ["matching", "steering on", "filter", "position RMSE (m)", "RMSE ÷ PCRB"]),
-        ),
-    ]
-
-
-# ---- navigation ---------------------------------------------------------------------------------
-
-
-def _pyins(r: Results) -> list[str]:
-    return [
-        f"- after 300 s: position {g(_one(r, 'ins_vs_pyins_300s_position_m'), 2)} m, height "
-        f"{g(_one(r, 'ins_vs_pyins_300s_height_m'), 2)} m, velocity "
-        f"{g(_one(r, 'ins_vs_pyins_300s_velocity_mps'), 2)} m/s, attitude "
-        f"{g(_one(r, 'ins_vs_pyins_300s_attitude_rad'), 2)} rad apart"
-    ]
-
-
-def _nees(r: Results) -> list[str]:
-    return [
-        f"- mean attitude NEES (3 dof, after 60 s): {_one(r, 'nees_attitude_imu_tuning'):.2f} with"
-        " the IMU-derived tuning, "
-        f"{_one(r, 'nees_attitude_paper_tuning'):.0f} with the paper's printed P0/Q"
-    ]
-
-
-# ---- speed --------------------------------------------------------------------------------------
-
-
-def _ins_rtf(r: Results) -> list[str]:
-    d = r.json("benchmarks/results/ins_filter_rtf.json")
-    return [
-        f"- INS + 15-state filter: {d['rtf']:.0f}× real time ({d['us_per_imu_step']:.0f} µs an "
-        f"IMU step); the INS alone {d['ins_alone_rtf']:.0f}× ({d['env']})"
-    ]
-
-
-def _frame(r: Results) -> list[str]:
-    d = r.json("benchmarks/results/polarimeter_frame.json")
-    base = {x["shape"]: x for x in d["baseline"]["rows"]}
-    rows = []
-    for x in d["rows"]:
-        lo, hi = x["frame_ms_range"]
-        b = base.get(x["shape"])
-        rows.append(
-            [
-                x["shape"],
-                f"{x['frame_ms']:.1f} [{lo:.1f}–{hi:.1f}]",
-                f"{x['frame_with_occlusion_ms']:.1f}",
-                f"{b['frame_ms']:.1f}" if b else "—",
-            ]
-        )
-    return [
-        *md_table(
-            ["frame", "whole frame (ms), median [range]", "with occlusion (ms)", "baseline (ms)"],
-            rows,
-        ),
-        "",
-        f"{d['meta']['rounds']} interleaved rounds on one core; targets 100 ms and 10 ms.",
-    ]
-
-
-def _compass_timing(r: Results) -> list[str]:
-    rows = r.table("benchmarks/results/compass_timing.md", "Compass methods")
-    return md_table(["method", "median ms"], pick(rows, ["method", "median ms"]))
-
-
-def _sea_trial_rtf(r: Results) -> list[str]:
-    d = r.json("benchmarks/results/sea_trial_rtf.json")
-    mission = d["meta"]["mission_s"]
-    rows = []
-    commit = (d["meta"]["provenance"].get("commit") or "?")[:7]
-    for build, runs in d["rows"].items():
-        label = f"{commit} (this study's)" if build == "current" else f"{build} (baseline)"
-        for x in runs:
-            what = f"{len(x['variants'])} filters" + (", recording" if x["recording"] else "")
-            rows.append([label, what, f"{mission / x['wall_s']:.1f}×"])
-    return [
-        *md_table(["build", "run", "real-time factor (median)"], rows),
-        "",
-        "Issue #31's targets: 100× without the recording, 60× with it.",
-    ]
-
-
-def _throughput(r: Results) -> list[str]:
-    d = r.json("benchmarks/results/campaign_throughput.json")
-    rows = [
-        [k, f"{v['runs_per_min']:.1f}", f"{v['steady_runs_per_min']:.1f}"]
-        for k, v in d.items()
-        if isinstance(v, dict) and "runs_per_min" in v
-    ]
-    return [
-        *md_table(["backend", "runs/min", "after start-up"], rows),
-        "",
-        f"{d['runs']} runs of a {d['duration_s']:.0f} s trial ({d['machine']}).",
-    ]
-
+import page_numbers as n
+from page import Claim
 
 CLAIMS = (
     Claim(
         "Top speed at 1525 rpm",
         "The steady speed where the propeller's thrust equals the hull's drag, against REMUS 100's"
         " about 2.5 m/s (Allen et al. 2000).",
-        (CHECKS,),
-        _top_speed,
+        (n.CHECKS,),
+        n.top_speed,
     ),
     Claim(
         "Roll righting period after a 30° release",
         "The period of the roll oscillation in MuJoCo against the linearised coupled sway–roll "
         "model's eigenvalue (Fossen 2021).",
-        (CHECKS,),
-        _righting,
+        (n.CHECKS,),
+        n.righting,
     ),
     Claim(
         "15° rudder turn at 1.5 m/s",
         "The plant in MuJoCo against Fossen's 6-DOF equations integrated with scipy, same wrench, "
         "no MuJoCo.",
-        (CHECKS,),
-        _turn_cruise,
+        (n.CHECKS,),
+        n.turn_cruise,
     ),
     Claim(
         "15° rudder turn at 1525 rpm (ρ = 1026)",
@@ -545,7 +38,7 @@ CLAIMS = (
         "inputs; the middle row switches the twin's two modelling departures to PVS's choice "
         "([why](physics.md)).",
         ("validation/results/turning_vs_pvs.json",),
-        _turn_full,
+        n.turn_full,
         "With PVS's two choices the twin turns and heels as PVS does; its own two (the "
         "exact cross-flow integral, the whole propeller torque on the hull) turn tighter "
         "and heel more ([physics.md](physics.md)).",
@@ -554,77 +47,77 @@ CLAIMS = (
         "Standing heel from the propeller torque",
         "The straight-running heel against the closed form W z_g sin φ = Q from the propeller "
         "model.",
-        (CHECKS,),
-        _heel,
+        (n.CHECKS,),
+        n.heel,
     ),
     Claim(
         "Neutral buoyancy, 60 s at rest",
         "A neutrally buoyant vehicle released at 10 m with no command.",
-        (CHECKS,),
-        _rest,
+        (n.CHECKS,),
+        n.rest,
     ),
     Claim(
         "Passive vehicle in a 0.3 m/s current",
         "A vehicle at rest, beam-on to a 0.3 m/s current, must drift with the water.",
-        (CHECKS,),
-        _current,
+        (n.CHECKS,),
+        n.current,
     ),
     Claim(
         "IMU white noise and Allan deviation",
         "The lig2024 IMU model's output against its datasheet densities (IEEE-952 read-off).",
-        (CHECKS,),
-        _imu,
+        (n.CHECKS,),
+        n.imu,
     ),
     Claim(
         "Plant real-time factor, 10-minute mission, one core",
         "Wall time of the plant alone and of a full run.",
         ("benchmarks/results/plant_rtf.json",),
-        _plant_rtf,
+        n.plant_rtf,
     ),
     Claim(
         "Snell's window",
         "The half-angle from the Quan–Fry water index against the verified table of optics.md "
         "§2.1 (each within 0.006°, the test's bound).",
-        (CHECKS,),
-        _snell_window,
+        (n.CHECKS,),
+        n.snell_window,
     ),
     Claim(
         "Sky polarization",
         "The sky model against the MOI paper's closed forms (eqs. 9–25) and Berry's model against "
         "Rayleigh's in its limit.",
-        (CHECKS,),
-        _sky,
+        (n.CHECKS,),
+        n.sky,
     ),
     Claim(
         "Raw → Stokes",
         "The DoFP mosaic's Stokes images against polanalyser (a test-only oracle).",
-        (CHECKS,),
-        _stokes,
+        (n.CHECKS,),
+        n.stokes,
     ),
     Claim(
         "AoP noise on a uniform field",
         "The AoP's standard deviation on a uniform polarized field against the shot-noise law "
         "(optics.md §3.3).",
-        (CHECKS,),
-        _aop_noise,
+        (n.CHECKS,),
+        n.aop_noise,
     ),
     Claim(
         "MOI / PATZ / HT on the MOI paper's frames (Fig. 8)",
         "The three methods on the paper's ideal and noisy frames, 250 of the paper's 2000 trials "
         "per elevation and case; the paper reports MOI's error at 1 % noise as 0.011°.",
-        (f"{CAMPAIGNS}/moi_noise/report.md",),
-        _moi_noise,
+        (f"{n.CAMPAIGNS}/moi_noise/report.md",),
+        n.moi_noise,
     ),
     Claim(
         "Snell-window attitude across ±50° tilt (noisy camera), 2 m Jerlov II, sun 35°",
         "The paper's Snell-window method as written and the twin's refinement, on the same frames "
         "([why](polarimeter.md)).",
         (
-            f"{CAMPAIGNS}/snell_attitude/report.md",
-            f"{CAMPAIGNS}/snell_water/report.md",
-            f"{CAMPAIGNS}/snell_waves/report.md",
+            f"{n.CAMPAIGNS}/snell_attitude/report.md",
+            f"{n.CAMPAIGNS}/snell_water/report.md",
+            f"{n.CAMPAIGNS}/snell_waves/report.md",
         ),
-        _snell_attitude,
+        n.snell_attitude,
         "The cause, measured by switching it: a low sun's forward-scattering glow crosses"
         " the window's rim once b z > 0.05; in clear water (Jerlov I) and with a high sun"
         " the twin's method holds "
@@ -640,27 +133,27 @@ CLAIMS = (
             "validation/results/renderer_vs_reference.md",
             "validation/results/fast_path_error.json",
         ),
-        _lightfield,
+        n.lightfield,
     ),
     Claim(
         "Every optical input sourced, with its range",
         "Each sourced input (the particles' peak polarization P, the depolarization δ, the CIE sky"
         " type) set to the ends of its range; the largest change it makes to the headline results.",
         ("validation/results/optics_sensitivity.md",),
-        _sensitivity,
+        n.sensitivity,
     ),
     Claim(
         "Bubbles and caustics under a wind sea",
         "The Hall–Novarini bubble population and the caustic beam against measured seas.",
         ("validation/results/sea_surface_light.md",),
-        _sea_surface,
+        n.sea_surface,
     ),
     Claim(
         "LIG vs POL under water, Jerlov I → 3C, 1–20 m, sun 20–70°",
         "Both papers' methods as written and as the twin refines them, on the same frames of the "
         "noisy 612×512 camera ([why LIG leans](../validation/results/lig_bias_cause.md)).",
-        (f"{CAMPAIGNS}/compass_underwater/report.md", "validation/results/lig_bias_cause.md"),
-        _compass_underwater,
+        (f"{n.CAMPAIGNS}/compass_underwater/report.md", "validation/results/lig_bias_cause.md"),
+        n.compass_underwater,
         "POL's apparent sun drifts towards the zenith with depth and turbidity; LIG's "
         "leans towards the horizon in shallow or clear water, by the clear sky's "
         "gradation seen through Snell's window, not by radiative transfer ([switched "
@@ -672,8 +165,8 @@ CLAIMS = (
         "caustics included), each method as its paper writes it and as the twin refines it; the "
         "paper's numbers beside the twin's, every reason with the switch that shows it in the "
         "report.",
-        (HW, "validation/results/paper_methods.md"),
-        _hardware,
+        (n.HW, "validation/results/paper_methods.md"),
+        n.hardware,
         "Where the twin and a paper differ by more than a factor of 2, the report gives "
         "the reason with the switch that shows it, or marks it a hypothesis; "
         "[paper_methods](../validation/results/paper_methods.md) switches each departure "
@@ -684,7 +177,7 @@ CLAIMS = (
         "The paper's two tests with Table 1's Q_t read as printed, on maps drawn with the paper's"
         " 78 mGal range ([why](gravity.md)).",
         ("validation/results/gravity_path_planning.md", "validation/results/gravity_aided_twin.md"),
-        _gravity,
+        n.gravity,
         "SITAN as the paper describes it loses lock on the 5 km maps, so the planned path"
         " is seldom least there; at 10 km it holds and the planned path wins. The "
         "random-walk bound is no bound for a Schuler-correlated INS "
@@ -693,44 +186,44 @@ CLAIMS = (
     Claim(
         "INS vs pyins on a 300 s manoeuvre",
         "The strapdown mechanization against python-ins on the same increments and gravity.",
-        (CHECKS,),
-        _pyins,
+        (n.CHECKS,),
+        n.pyins,
     ),
     Claim(
         "Filter consistency with the paper's IMU",
         "The 15-state filter's attitude NEES at rest with solar and gravity aiding "
         "([navigation.md](navigation.md)).",
-        (CHECKS,),
-        _nees,
+        (n.CHECKS,),
+        n.nees,
     ),
     Claim(
         "INS + 15-state filter alone",
         "Wall time of the INS and the filter at 100 Hz.",
         ("benchmarks/results/ins_filter_rtf.json",),
-        _ins_rtf,
+        n.ins_rtf,
     ),
     Claim(
         "Polarimeter frame, one core",
         "The whole frame (light field, lens, sensor) against the baseline commit in the same run.",
         ("benchmarks/results/polarimeter_frame.json",),
-        _frame,
+        n.frame,
     ),
     Claim(
         "Compass methods, full 2448×2048 frame",
         "Time per frame, one thread, median of 10.",
         ("benchmarks/results/compass_timing.md",),
-        _compass_timing,
+        n.compass_timing,
     ),
     Claim(
         "10-minute sea trial with the 612×512 camera at 1 Hz, one core",
         "Wall time of the whole trial against its simulated time, the baseline in the same run.",
         ("benchmarks/results/sea_trial_rtf.json",),
-        _sea_trial_rtf,
+        n.sea_trial_rtf,
     ),
     Claim(
         "Campaign throughput, 2 cores",
         "Runs a minute on the local pool and on Ray with one and two workers.",
         ("benchmarks/results/campaign_throughput.json",),
-        _throughput,
+        n.throughput,
     ),
 )
