@@ -238,12 +238,66 @@ def _axis_values(i: int, t: Mapping[str, Any], rng: np.random.Generator, errs: l
 
 
 def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Path | None = None):
-    """Validate a campaign mapping; every problem at once (:class:`CampaignError`)."""
+    """Validate a campaign mapping; every problem at once (:class:`CampaignError`).
+
+    The checks run in the file's reading order (the run's settings, the time series, the trial and
+    its base, ``[set]``, the sweeps), each adding its problems to one list, so that a malformed
+    campaign is reported whole, in that order.
+    """
     errs: list[str] = []
     if not isinstance(data, Mapping):
         raise CampaignError(["the campaign is not a table"], source)
     for k in sorted(set(data) - _TOP_KEYS):
         errs.append(f"{k}: unknown key; allowed: {sorted(_TOP_KEYS)}")
+    head = _parse_settings(data, errs)
+    ts_keep, ts_rate = _parse_timeseries(data, errs)
+    trial_name, study, base = _parse_trial(data, errs, root)
+    fixed = _parse_set(data, errs)
+    axes = _parse_sweeps(data, errs, np.random.default_rng(head.random_seed), head.combine)
+    if errs:
+        raise CampaignError(errs, source)
+    if study is not None:
+        runs = _resolve_study(study, axes, head.combine, head.seeds, fixed, source)
+    else:
+        assert base is not None
+        runs = _resolve(base, axes, head.combine, head.seeds, fixed, source)
+    _check_distinct(runs, source)
+    return CampaignSpec(
+        name=head.name,
+        description=head.description,
+        base=base,
+        combine=head.combine,
+        seeds=head.seeds,
+        axes=tuple(axes),
+        fixed=tuple(fixed),
+        metrics=tuple(head.metrics),
+        wall_time_limit_s=float(head.limit),
+        timeseries=ts_keep,
+        timeseries_rate_hz=float(ts_rate),
+        keep_recordings=head.keep,
+        worst_by=head.worst_by,
+        source=source,
+        runs=runs,
+        trial=str(trial_name) if study is not None else SCENARIO,
+    )
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """A campaign's top-level settings as parsed (a bad value replaced by its default)."""
+
+    name: str
+    description: str
+    combine: str
+    seeds: tuple[int, ...]
+    limit: float
+    metrics: list[str]
+    random_seed: int
+    keep: int
+    worst_by: str
+
+
+def _parse_settings(data: Mapping[str, Any], errs: list[str]) -> _Settings:
     name = data.get("name")
     if not (isinstance(name, str) and _NAME.fullmatch(name)):
         errs.append(f"name: {_show(name)}; allowed: 1-64 lowercase letters, digits and '_'")
@@ -253,24 +307,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
     combine = data.get("combine", "grid")
     if combine not in COMBINE:
         errs.append(f"combine: {_show(combine)}; allowed: {list(COMBINE)}")
-    seeds_raw = data.get("seeds", 1)
-    seeds: tuple[int, ...] = ()
-    if isinstance(seeds_raw, int) and not isinstance(seeds_raw, bool) and 1 <= seeds_raw <= 1e6:
-        seeds = tuple(range(seeds_raw))
-    elif (
-        isinstance(seeds_raw, list)
-        and seeds_raw
-        and all(
-            isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX for s in seeds_raw
-        )
-        and len(set(seeds_raw)) == len(seeds_raw)
-    ):
-        seeds = tuple(seeds_raw)
-    else:
-        errs.append(
-            f"seeds: {_show(seeds_raw)}; allowed: a count in [1, 1000000] or a list of distinct "
-            f"integers in [0, {SEED_MAX}] (2**63 - 1: a Parquet int64)"
-        )
+    seeds = _parse_seeds(data.get("seeds", 1), errs)
     limit = data.get("wall_time_limit_s", 3600.0)
     if not (_number(limit) and limit > 0):
         errs.append(f"wall_time_limit_s: {_show(limit)}; allowed: a number > 0 (seconds)")
@@ -292,22 +329,52 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
     if not isinstance(worst_by, str):
         errs.append(f"worst_by: {_show(worst_by)}; allowed: a kept metric key (dotted)")
         worst_by = ""
+    # A bad name, description, combine or limit stops the parse before these are used.
+    return _Settings(name, description, combine, seeds, limit, metrics, random_seed, keep, worst_by)  # type: ignore[arg-type]
+
+
+def _parse_seeds(seeds_raw: Any, errs: list[str]) -> tuple[int, ...]:
+    if isinstance(seeds_raw, int) and not isinstance(seeds_raw, bool) and 1 <= seeds_raw <= 1e6:
+        return tuple(range(seeds_raw))
+    if (
+        isinstance(seeds_raw, list)
+        and seeds_raw
+        and all(
+            isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX for s in seeds_raw
+        )
+        and len(set(seeds_raw)) == len(seeds_raw)
+    ):
+        return tuple(seeds_raw)
+    errs.append(
+        f"seeds: {_show(seeds_raw)}; allowed: a count in [1, 1000000] or a list of distinct "
+        f"integers in [0, {SEED_MAX}] (2**63 - 1: a Parquet int64)"
+    )
+    return ()
+
+
+def _parse_timeseries(data: Mapping[str, Any], errs: list[str]) -> tuple[tuple[str, ...], float]:
     ts = data.get("timeseries", {})
     ts_keep: tuple[str, ...] = ()
     ts_rate = 1.0
     if not isinstance(ts, Mapping) or set(ts) - {"keep", "rate_hz"}:
         errs.append(f"timeseries: {_show(ts)}; allowed: a table with keep, rate_hz")
+        return ts_keep, ts_rate
+    k = ts.get("keep", [])
+    if not (isinstance(k, list) and all(x in ("heading_error_deg",) for x in k)):
+        errs.append(f"timeseries.keep: {_show(k)}; allowed: a list of ['heading_error_deg']")
     else:
-        k = ts.get("keep", [])
-        if not (isinstance(k, list) and all(x in ("heading_error_deg",) for x in k)):
-            errs.append(f"timeseries.keep: {_show(k)}; allowed: a list of ['heading_error_deg']")
-        else:
-            ts_keep = tuple(k)
-        ts_rate = ts.get("rate_hz", 1.0)
-        if not (_number(ts_rate) and 0 < ts_rate <= 10):
-            errs.append(f"timeseries.rate_hz: {_show(ts_rate)}; allowed: (0, 10]")
-            ts_rate = 1.0
+        ts_keep = tuple(k)
+    ts_rate = ts.get("rate_hz", 1.0)
+    if not (_number(ts_rate) and 0 < ts_rate <= 10):
+        errs.append(f"timeseries.rate_hz: {_show(ts_rate)}; allowed: (0, 10]")
+        ts_rate = 1.0
+    return ts_keep, ts_rate
 
+
+def _parse_trial(
+    data: Mapping[str, Any], errs: list[str], root: Path | None
+) -> tuple[Any, StudyTrial | None, Scenario | None]:
+    """The trial's name, the study trial (None for a scenario trial) and the base scenario."""
     trial_name = data.get("trial", SCENARIO)
     study: StudyTrial | None = None
     if trial_name != SCENARIO:
@@ -337,19 +404,26 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
             base = scenarios.load(target)
         except (ScenarioError, FileNotFoundError) as exc:
             errs.append(f"base: {_show(base_raw)}: {exc}")
+    return trial_name, study, base
 
+
+def _parse_set(data: Mapping[str, Any], errs: list[str]) -> list[tuple[str, Any]]:
     fixed_raw = data.get("set", {})
     fixed: list[tuple[str, Any]] = []
     if not isinstance(fixed_raw, Mapping):
         errs.append(f"set: {_show(fixed_raw)}; allowed: a table of dotted path = value")
-    else:
-        for k, v in _flatten_set(fixed_raw):
-            if k == "seed":
-                errs.append("set.seed: the campaign's `seeds` key gives every run its seed")
-                continue
-            fixed.append((k, v))
+        return fixed
+    for k, v in _flatten_set(fixed_raw):
+        if k == "seed":
+            errs.append("set.seed: the campaign's `seeds` key gives every run its seed")
+            continue
+        fixed.append((k, v))
+    return fixed
 
-    rng = np.random.default_rng(random_seed)
+
+def _parse_sweeps(
+    data: Mapping[str, Any], errs: list[str], rng: np.random.Generator, combine: Any
+) -> list[Axis]:
     axes: list[Axis] = []
     sweeps = data.get("sweep", [])
     if not isinstance(sweeps, list):
@@ -393,33 +467,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<campaign>", root: Pa
             'combine: "zip" needs axes of one length; got '
             + ", ".join(f"{a.name} ({len(a.values)})" for a in axes)
         )
-    if errs:
-        raise CampaignError(errs, source)
-    assert isinstance(name, str)
-    if study is not None:
-        runs = _resolve_study(study, axes, combine, seeds, fixed, source)
-    else:
-        assert base is not None
-        runs = _resolve(base, axes, combine, seeds, fixed, source)
-    _check_distinct(runs, source)
-    return CampaignSpec(
-        name=name,
-        description=description,
-        base=base,
-        combine=combine,
-        seeds=seeds,
-        axes=tuple(axes),
-        fixed=tuple(fixed),
-        metrics=tuple(metrics),
-        wall_time_limit_s=float(limit),
-        timeseries=ts_keep,
-        timeseries_rate_hz=float(ts_rate),
-        keep_recordings=keep,
-        worst_by=worst_by,
-        source=source,
-        runs=runs,
-        trial=str(trial_name) if study is not None else SCENARIO,
-    )
+    return axes
 
 
 def _check_distinct(runs: Sequence[RunSpec], source: str) -> None:
