@@ -149,19 +149,7 @@ def run_scenario(
     out = prepare_output(out_dir)
     metrics_path = out / "metrics.json"
     world = build_simulation(scenario, seed)
-    seed_used = world.seed
-    base = {
-        "scenario": scenario.name,
-        "seed": seed_used,
-        "complete": False,
-        "status": "running",
-        "recording": "recording.rrd" if record else None,
-        "versions": _versions(),
-        # Where these numbers came from: code, packages, light model, inputs, seed, machine, date.
-        "provenance": provenance(fingerprint=fingerprint(scenario.to_dict()), seed=seed_used),
-        # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
-        "scenario_config": scenario.to_dict(),
-    }
+    base = _first_metrics(scenario, world.seed, record)
     _write_json_atomic(metrics_path, base)
 
     # From here on, whatever stops the run (Ctrl-C during start-up included) rewrites
@@ -179,33 +167,12 @@ def run_scenario(
     bar = None
     try:
         if record:
-            rec = Recorder(
-                out / "recording.rrd",
-                recording_id=f"{scenario.name}-seed{seed_used}",
-                start_utc=scenario.start_utc,
-                compact=False,  # compacted after metrics.json is written (below)
-                blueprint=default_blueprint(
-                    tuple(world.navigators), gravity=world.stored_map is not None
-                ),
-                live=live,
-            )
-            rec.log_properties("provenance", base["provenance"])
+            rec = _open_recording(out, scenario, world, base["provenance"], live)
         notes = _notes(scenario)
         for note in notes:
             say(f"note: {note}")
-        want_camera = record and (scenario.recording.camera if camera is None else camera)
-        if want_camera:
-            cam = ChaseCamera(
-                world.plant.model,
-                scenario.recording.camera_width,
-                scenario.recording.camera_height,
-            )
-            if not cam.available:
-                say(
-                    f"note: no GL context for the chase camera ({cam.reason}); "
-                    "continuing without it"
-                )
-                cam = None
+        if record and (scenario.recording.camera if camera is None else camera):
+            cam = _open_camera(scenario, world, say)
         recorder = RunRecorder(rec, world, scorer, cam) if rec is not None else None
         series = TimeSeriesWriter(world, scorer, scenario.start_utc) if timeseries else None
         if mcap:
@@ -240,16 +207,10 @@ def run_scenario(
         if mcap_log is not None:
             mcap_log.close()
         if rec is not None:
-            try:
-                rec.log_text(
-                    world.plant.t, f"run ended: {status_text}" + (f" ({error})" if error else "")
-                )
-                rec.close()
-            except Exception as exc:
-                recording_error = f"{type(exc).__name__}: {exc}"
-                if status_text in ("mission_complete", "duration_reached", "running"):
-                    status_text = "error"
-                    error = f"closing the recording failed: {recording_error}"
+            recording_error = _close_recording(rec, world.plant.t, status_text, error)
+            if recording_error is not None and status_text in _FLYING:
+                status_text = "error"
+                error = f"closing the recording failed: {recording_error}"
         metrics = {
             **base,
             "complete": status_text in ("mission_complete", "duration_reached"),
@@ -278,6 +239,64 @@ def run_scenario(
                 f"closing the recording {out / 'recording.rrd'} failed: {recording_error}"
             )
     return metrics
+
+
+#: A run's status while it flies or once it ended as planned (a failure after it is an error).
+_FLYING = ("mission_complete", "duration_reached", "running")
+
+
+def _first_metrics(scenario: Scenario, seed: int, record: bool) -> dict[str, Any]:
+    """metrics.json as the run starts: who, what and where from, before any number."""
+    return {
+        "scenario": scenario.name,
+        "seed": seed,
+        "complete": False,
+        "status": "running",
+        "recording": "recording.rrd" if record else None,
+        "versions": _versions(),
+        # Where these numbers came from: code, packages, light model, inputs, seed, machine, date.
+        "provenance": provenance(fingerprint=fingerprint(scenario.to_dict()), seed=seed),
+        # Every setting, defaults written out: parse_scenario(this) rebuilds the scenario.
+        "scenario_config": scenario.to_dict(),
+    }
+
+
+def _open_recording(
+    out: Path, scenario: Scenario, world: Simulation, block: dict[str, Any], live: str | None
+) -> Recorder:
+    rec = Recorder(
+        out / "recording.rrd",
+        recording_id=f"{scenario.name}-seed{world.seed}",
+        start_utc=scenario.start_utc,
+        compact=False,  # compacted after metrics.json is written (run_scenario)
+        blueprint=default_blueprint(tuple(world.navigators), gravity=world.stored_map is not None),
+        live=live,
+    )
+    rec.log_properties("provenance", block)
+    return rec
+
+
+def _open_camera(
+    scenario: Scenario, world: Simulation, say: Callable[[str], None]
+) -> ChaseCamera | None:
+    """The chase camera, or None (with a note) where no GL context can be had."""
+    cam = ChaseCamera(
+        world.plant.model, scenario.recording.camera_width, scenario.recording.camera_height
+    )
+    if not cam.available:
+        say(f"note: no GL context for the chase camera ({cam.reason}); continuing without it")
+        return None
+    return cam
+
+
+def _close_recording(rec: Recorder, t: float, status_text: str, error: str | None) -> str | None:
+    """Log how the run ended and close the file; the failure to do so, or None."""
+    try:
+        rec.log_text(t, f"run ended: {status_text}" + (f" ({error})" if error else ""))
+        rec.close()
+    except Exception as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
 
 
 def _notes(scenario: Scenario) -> list[str]:
