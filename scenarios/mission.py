@@ -10,15 +10,9 @@ reported, none raised) and returns its dataclass, or None where a problem was re
 from __future__ import annotations
 
 from scenarios.ranges import (
-    COMMANDED_SPEED_MPS,
-    COMPASS_DEG,
-    DURATION_S,
-    LANES,
     MSG_ACCEPT_TOO_BIG,
     MSG_LEG_BOTH,
     MSG_LEG_NEITHER,
-    NON_NEGATIVE,
-    POSITIVE,
 )
 from scenarios.reading import (
     _all_set,
@@ -76,23 +70,20 @@ def _leg(t: _Table) -> Leg | None:
         return None
     leg: Leg | None
     if has_to:
+        t.of(WaypointLeg)
         to = t.vec2("to_m")
-        depth = t.number("depth_m", NON_NEGATIVE)
+        depth = t.number("depth_m")
         t.report.point(t.at("to_m"), "the waypoint", to)
-        leg = _build(
-            WaypointLeg,
-            to_m=to,
-            depth_m=depth,
-            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
-        )
+        leg = _build(WaypointLeg, to_m=to, depth_m=depth, speed_mps=t.number("speed_mps"))
         t.finish(elsewhere=_HEADING_LEG_KEYS, context="by a waypoint leg (it has to_m)")
     else:
+        t.of(HeadingLeg)
         leg = _build(
             HeadingLeg,
-            heading_deg=t.number("heading_deg", COMPASS_DEG),
-            duration_s=t.number("duration_s", DURATION_S),
-            depth_m=(depth := t.number("depth_m", NON_NEGATIVE)),
-            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+            heading_deg=t.number("heading_deg"),
+            duration_s=t.number("duration_s"),
+            depth_m=(depth := t.number("depth_m")),
+            speed_mps=t.number("speed_mps"),
         )
         t.finish(elsewhere=_WAYPOINT_LEG_KEYS, context="by a heading leg (it has heading_deg)")
     t.report.depth(t.at("depth_m"), depth)
@@ -132,13 +123,23 @@ _MISSION_KEYS = {
 }
 
 
+#: Each mission kind's dataclass: its fields' defaults and ranges are declared there.
+_MISSION_CLASSES: dict[str, type] = {
+    "legs": LegsMission,
+    "lawnmower": LawnmowerMission,
+    "station_keeping": StationKeepingMission,
+    "planned": PlannedMission,
+}
+
+
 def read_mission(t: _Table | None) -> Mission | None:
     if t is None:
         return None
     kind = t.string("kind", choices=MISSION_KINDS)
     if kind is None:
         return None  # the other keys depend on the kind: checking them would only add noise
-    accept = t.number("acceptance_radius_m", POSITIVE, default=5.0)
+    t.of(_MISSION_CLASSES[kind])
+    accept = t.number("acceptance_radius_m")
     mission: Mission | None = None
     if kind == "legs":
         tables = t.tables(
@@ -150,14 +151,14 @@ def read_mission(t: _Table | None) -> Mission | None:
     elif kind == "lawnmower":
         geometry = {
             "origin_m": t.vec2("origin_m"),
-            "heading_deg": t.number("heading_deg", COMPASS_DEG),
-            "lane_length_m": t.number("lane_length_m", POSITIVE),
-            "lane_spacing_m": t.number("lane_spacing_m", POSITIVE),
-            "lanes": t.integer("lanes", LANES),
+            "heading_deg": t.number("heading_deg"),
+            "lane_length_m": t.number("lane_length_m"),
+            "lane_spacing_m": t.number("lane_spacing_m"),
+            "lanes": t.integer("lanes"),
         }
-        depth = t.number("depth_m", NON_NEGATIVE)
+        depth = t.number("depth_m")
         t.report.depth(t.at("depth_m"), depth)
-        speed = t.number("speed_mps", COMMANDED_SPEED_MPS)
+        speed = t.number("speed_mps")
         if _all_set(*geometry.values()):
             _lawnmower_geometry(t, LawnmowerMission(**geometry, depth_m=0.0, speed_mps=1.0), accept)
         mission = _build(
@@ -166,21 +167,21 @@ def read_mission(t: _Table | None) -> Mission | None:
     elif kind == "planned":
         goal = t.vec2("goal_m")
         t.report.point(t.at("goal_m"), "the goal", goal)
-        depth = t.number("depth_m", NON_NEGATIVE)
+        depth = t.number("depth_m")
         t.report.depth(t.at("depth_m"), depth)
         mission = _build(
             PlannedMission,
             goal_m=goal,
             depth_m=depth,
-            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
-            q_rate_m2_per_s=t.number("q_rate_m2_per_s", POSITIVE, default=100.0),
-            lookahead_m=t.number("lookahead_m", NON_NEGATIVE, default=0.0),
+            speed_mps=t.number("speed_mps"),
+            q_rate_m2_per_s=t.number("q_rate_m2_per_s"),
+            lookahead_m=t.number("lookahead_m"),
             acceptance_radius_m=accept,
         )
     else:
         center = t.vec2("center_m")
-        depth = t.number("depth_m", NON_NEGATIVE)
-        radius = t.number("radius_m", POSITIVE)
+        depth = t.number("depth_m")
+        radius = t.number("radius_m")
         t.report.depth(t.at("depth_m"), depth)
         if center is not None and radius is not None:
             (e, n), r = center, radius
@@ -191,7 +192,7 @@ def read_mission(t: _Table | None) -> Mission | None:
             center_m=center,
             depth_m=depth,
             radius_m=radius,
-            speed_mps=t.number("speed_mps", COMMANDED_SPEED_MPS),
+            speed_mps=t.number("speed_mps"),
             acceptance_radius_m=accept,
         )
     elsewhere = {k for keys in _MISSION_KEYS.values() for k in keys}

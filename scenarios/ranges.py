@@ -8,7 +8,13 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 
-from scenarios.fields import Range
+from twin.core.fields import COMPASS_DEG as COMPASS_DEG
+from twin.core.fields import DURATION_S as DURATION_S
+from twin.core.fields import NON_NEGATIVE as NON_NEGATIVE
+from twin.core.fields import POSITIVE as POSITIVE
+from twin.core.fields import Range
+from twin.core.mission import COMMANDED_SPEED_MPS as COMMANDED_SPEED_MPS
+from twin.core.mission import LANES as LANES
 
 # The tank scene (models/auv/scene_tank.xml): 12 m (East) x 6 m (North) x 4 m deep, centred on the
 # world origin, water surface at z = 0.
@@ -57,11 +63,9 @@ MSG_PROFILE_ORDER = (
 # ---- ranges ------------------------------------------------------------------------------------
 
 
-NON_NEGATIVE = Range(0.0)
 #: A root seed: an int64 (a Parquet column holds it; numpy's SeedSequence takes any int).
 SEED_MAX = 2**63 - 1
 SEED = Range(0, SEED_MAX)
-POSITIVE = Range(0.0, lo_open=True)
 # The poles are excluded: the INS mechanises in local-level ENU, whose East axis and longitude rate
 # (v_E / (R cos φ)) are undefined at ±90° (twin/onboard/ins.py); a grid-frame INS would be needed.
 LATITUDE_DEG = Range(-90.0, 90.0, lo_open=True, hi_open=True)
@@ -74,10 +78,8 @@ MSG_START_RANGE = (
     "nanosecond timestamps); the whole run must fit"
 )
 LONGITUDE_DEG = Range(-180.0, 180.0)
-COMPASS_DEG = Range(0.0, 360.0, hi_open=True)
 ROLL_DEG = Range(-180.0, 180.0)
 PITCH_DEG = Range(-90.0, 90.0)
-DURATION_S = Range(0.0, 86400.0, lo_open=True)
 DENSITY_KG_M3 = Range(990.0, 1050.0)
 TEMPERATURE_C = Range(-2.0, 40.0)
 SALINITY_PSU = Range(0.0, 42.0)
@@ -90,12 +92,10 @@ SCATTERING_PER_M = Range(0.0, 100.0)
 CURRENT_SPEED_MPS = Range(0.0, 3.0)
 GUST_SIGMA_MPS = Range(0.0, 1.0)
 VEHICLE_SPEED_MPS = Range(0.0, 3.0)  # the initial speed: may be 0 (starting at rest)
-COMMANDED_SPEED_MPS = Range(0.0, 2.5, lo_open=True)  # REMUS-100's top speed is about 2.5 m/s
 RATE_HZ = Range(0.0, 1000.0, lo_open=True)
 CAMERA_RATE_HZ = Range(0.0, 30.0, lo_open=True)
 CAMERA_WIDTH = Range(16, 1920)
 CAMERA_HEIGHT = Range(16, 1080)
-LANES = Range(1)
 CIE_SKY_TYPE = Range(1, 15)
 BERRY_DELTA_DEG = Range(0.0, 60.0)
 ZENITH_RADIANCE = Range(0.0, 10.0, lo_open=True)

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from datetime import date, datetime, time
 from typing import Any, TypeVar
 
-from scenarios.fields import Range as Range
-from scenarios.fields import declaration
 from scenarios.schema import Vec2
+from twin.core.fields import Range as Range
+from twin.core.fields import declaration
 
 T = TypeVar("T")
 
@@ -113,7 +113,7 @@ def _choices(options: Iterable[str]) -> str:
 # ---- the checker -------------------------------------------------------------------------------
 
 _MISSING: Any = object()  # required: no default
-#: A getter's default when not given: the field's declared default (scenarios.fields).
+#: A getter's default when not given: the field's declared default (twin.core.fields).
 _DECLARED: Any = object()
 
 
@@ -223,7 +223,7 @@ class _Table:
         self.data = data
         self.known: list[str] = []
         # The dataclass this table is read into: its fields' declarations give the getters their
-        # defaults, ranges and choices (scenarios.fields), so the loader writes none of them.
+        # defaults, ranges and choices (twin.core.fields), so the loader writes none of them.
         self.schema = schema
 
     def of(self, schema: type) -> _Table:

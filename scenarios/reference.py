@@ -102,7 +102,7 @@ def _string_schema(allowed: Any, choices: Any) -> dict[str, Any]:
 
 
 #: The loader's typed getters and the JSON Schema each one's range or choices give (what the
-#: getter was passed, else the field's declaration: scenarios.fields).
+#: getter was passed, else the field's declaration: twin.core.fields).
 _TYPED: Mapping[str, Any] = {
     "number": lambda allowed, choices: _range_schema("number", allowed),
     "integer": lambda allowed, choices: _range_schema("integer", allowed),

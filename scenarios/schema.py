@@ -21,7 +21,6 @@ from datetime import UTC, datetime, timedelta
 from typing import Any, Literal, TypeAlias
 
 from scenarios import ranges as R
-from scenarios.fields import declared
 from scenarios.ranges import TANK_FLOOR_DEPTH_M as TANK_FLOOR_DEPTH_M
 from scenarios.ranges import TANK_LENGTH_M as TANK_LENGTH_M
 from scenarios.ranges import TANK_MAX_DEPTH_M as TANK_MAX_DEPTH_M
@@ -47,6 +46,7 @@ from scenarios.schema_equipment import (  # noqa: F401  (re-exported: the schema
     nav_variants,
 )
 from twin.core.extensions import WATER_BODIES
+from twin.core.fields import declared
 from twin.core.mission import (
     MISSION_KINDS,
     HeadingLeg,

@@ -2,7 +2,7 @@
 
 Sensors, the camera unit's hardware budget, navigation, the autopilot and the recording: part of
 the scenario schema (:mod:`scenarios.schema` re-exports every name here), frozen dataclasses
-whose fields are each declared once (:func:`scenarios.fields.declared`), read by
+whose fields are each declared once (:func:`twin.core.fields.declared`), read by
 :mod:`scenarios.equipment` and :mod:`scenarios.mission` (the autopilot).
 """
 
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from typing import Any, Literal, TypeAlias
 
 from scenarios import ranges as R
-from scenarios.fields import Range, declared
 from twin.core.extensions import COMPASS_METHODS, INS_ONLY, SENSORS
+from twin.core.fields import Range, declared
 from twin.core.options import LENS_MODELS
 
 OverrideValue: TypeAlias = int | float | tuple[int | float, ...]

@@ -1,4 +1,4 @@
-"""Each scenario field is declared once, on its schema dataclass (``scenarios.fields.declared``).
+"""Each scenario field is declared once, on its schema dataclass (``twin.core.fields.declared``).
 
 The loader takes every declared default and range from there; these tests hold it to that for
 every declared field, table by table: a file that leaves the field out gets the declared default,
@@ -16,8 +16,8 @@ import pytest
 
 import scenarios
 from scenarios import ScenarioError, parse_scenario, schema
-from scenarios.fields import Range, declaration
 from scenarios.reference import SECTIONS
+from twin.core.fields import Range, declaration
 
 #: Tables read into one dataclass each, as a scenario file names them ("" = the top level): the
 #: field reference's own map of them.
@@ -36,7 +36,7 @@ def _declared_fields() -> list[tuple[str, str, Any]]:
     out = []
     for table, cls in TABLES.items():
         for f in dataclasses.fields(cls):
-            if "allowed" in f.metadata:  # declared with scenarios.fields.declared
+            if "allowed" in f.metadata:  # declared with twin.core.fields.declared
                 out.append((table, f.name, declaration(cls, f.name)))
     return out
 
@@ -119,3 +119,91 @@ def test_a_name_outside_the_declared_choices_is_refused(table: str, name: str, d
     path = f"{table}.{name}" if table else name
     assert any(e.startswith(f'{path}: "no_such_thing" is not one of') for e in err.value.errors)
     assert all(f'"{c}"' in str(err.value) for c in list(decl.names())[:3])
+
+
+# ---- the mission plan: the core's dataclasses (twin/core/mission.py), declared the same way ----
+#: A shipped scenario of each mission kind, and the mission table's path to a leg of each kind.
+MISSIONS = {
+    "legs": "default",
+    "lawnmower": "lawnmower_10m",
+    "station_keeping": "station_keeping_10m",
+    "planned": "gravity_aided",
+}
+
+
+def _mission_doc(kind: str) -> dict[str, Any]:
+    doc = scenarios.load(MISSIONS[kind]).to_dict()
+    if kind == "legs":  # a heading leg beside the waypoint legs
+        doc["mission"]["legs"].append(
+            {"heading_deg": 90.0, "duration_s": 30.0, "depth_m": 10.0, "speed_mps": 1.5}
+        )
+    return doc
+
+
+def _mission_fields() -> list[tuple[str, str, str, Any]]:
+    """(kind, path within the doc's mission, field, declaration) of every declared field."""
+    from twin.core.mission import HeadingLeg, WaypointLeg
+
+    out = []
+    for kind in MISSIONS:
+        cls = scenarios.load(MISSIONS[kind]).mission.__class__
+        tables = [("", cls)]
+        if kind == "legs":
+            tables += [("legs[0]", WaypointLeg), ("legs[-1]", HeadingLeg)]
+        for where, c in tables:
+            for f in dataclasses.fields(c):
+                if "allowed" in f.metadata:
+                    out.append((kind, where, f.name, declaration(c, f.name)))
+    return out
+
+
+MISSION_FIELDS = _mission_fields()
+
+
+def _mission_table(doc: dict[str, Any], where: str) -> dict[str, Any]:
+    m = doc["mission"]
+    return m if not where else m["legs"][0 if where == "legs[0]" else -1]
+
+
+def test_every_mission_kind_and_leg_declares_its_numbers() -> None:
+    kinds = {(k, w) for k, w, _, _ in MISSION_FIELDS}
+    assert kinds == {*((k, "") for k in MISSIONS), ("legs", "legs[0]"), ("legs", "legs[-1]")}
+    assert len(MISSION_FIELDS) >= 20
+
+
+@pytest.mark.parametrize(
+    ("kind", "where", "name", "decl"),
+    [x for x in MISSION_FIELDS if x[3].default is not dataclasses.MISSING],
+    ids=lambda x: getattr(x, "name", x),
+)
+def test_a_mission_field_left_out_gets_its_declared_default(
+    kind: str, where: str, name: str, decl: Any
+) -> None:
+    doc = _mission_doc(kind)
+    _mission_table(doc, where).pop(name, None)
+    assert getattr(parse_scenario(doc, "default-less").mission, name) == decl.default
+
+
+@pytest.mark.parametrize(
+    ("kind", "where", "name", "decl"), MISSION_FIELDS, ids=lambda x: getattr(x, "name", x)
+)
+def test_a_mission_value_outside_the_declared_range_is_refused(
+    kind: str, where: str, name: str, decl: Any
+) -> None:
+    tested = 0
+    for value in _outside(decl.allowed):
+        v: Any = value
+        if isinstance(decl.default, int) or name == "lanes":
+            v = math.floor(value) if value < (decl.allowed.lo or 0) + 1e-9 else math.ceil(value)
+            if v in decl.allowed:
+                continue
+        doc = _mission_doc(kind)
+        _mission_table(doc, where)[name] = v
+        with pytest.raises(ScenarioError) as err:
+            parse_scenario(doc, "out")
+        leg = f"[{len(doc['mission']['legs']) - 1}]" if where == "legs[-1]" else "[0]"
+        path = "mission." + (f"legs{leg}." if where else "") + name
+        assert any(e.startswith(path) and str(decl.allowed) in e for e in err.value.errors), (
+            path, v, err.value.errors)  # fmt: skip
+        tested += 1
+    assert tested >= 1

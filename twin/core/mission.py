@@ -12,7 +12,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Literal, TypeAlias
 
+from twin.core.fields import COMPASS_DEG, DURATION_S, NON_NEGATIVE, POSITIVE, Range, declared
+
 Vec2: TypeAlias = tuple[float, float]
+#: A commanded speed through the water: REMUS-100's top speed is about 2.5 m/s.
+COMMANDED_SPEED_MPS = Range(0.0, 2.5, lo_open=True)
+#: A lawnmower's number of lanes.
+LANES = Range(1)
 MissionKind: TypeAlias = Literal["legs", "lawnmower", "station_keeping", "planned"]
 MISSION_KINDS: tuple[str, ...] = ("legs", "lawnmower", "station_keeping", "planned")
 
@@ -26,18 +32,18 @@ class WaypointLeg:
     """
 
     to_m: Vec2
-    depth_m: float
-    speed_mps: float
+    depth_m: float = declared(allowed=NON_NEGATIVE)
+    speed_mps: float = declared(allowed=COMMANDED_SPEED_MPS)
 
 
 @dataclass(frozen=True, slots=True)
 class HeadingLeg:
     """Hold compass ``heading_deg`` at ``depth_m`` and ``speed_mps`` for ``duration_s``."""
 
-    heading_deg: float
-    duration_s: float
-    depth_m: float
-    speed_mps: float
+    heading_deg: float = declared(allowed=COMPASS_DEG)
+    duration_s: float = declared(allowed=DURATION_S)
+    depth_m: float = declared(allowed=NON_NEGATIVE)
+    speed_mps: float = declared(allowed=COMMANDED_SPEED_MPS)
 
 
 Leg: TypeAlias = WaypointLeg | HeadingLeg
@@ -49,7 +55,7 @@ class LegsMission:
 
     kind: ClassVar[Literal["legs"]] = "legs"
     legs: tuple[Leg, ...]
-    acceptance_radius_m: float = 5.0
+    acceptance_radius_m: float = declared(5.0, POSITIVE)
 
     def expand(self) -> tuple[Leg, ...]:
         """The legs to fly (already explicit for this kind)."""
@@ -69,13 +75,13 @@ class LawnmowerMission:
 
     kind: ClassVar[Literal["lawnmower"]] = "lawnmower"
     origin_m: Vec2
-    heading_deg: float
-    lane_length_m: float
-    lane_spacing_m: float
-    lanes: int
-    depth_m: float
-    speed_mps: float
-    acceptance_radius_m: float = 5.0
+    heading_deg: float = declared(allowed=COMPASS_DEG)
+    lane_length_m: float = declared(allowed=POSITIVE)
+    lane_spacing_m: float = declared(allowed=POSITIVE)
+    lanes: int = declared(allowed=LANES)
+    depth_m: float = declared(allowed=NON_NEGATIVE)
+    speed_mps: float = declared(allowed=COMMANDED_SPEED_MPS)
+    acceptance_radius_m: float = declared(5.0, POSITIVE)
 
     def waypoints_m(self) -> tuple[Vec2, ...]:
         """Lane endpoints in flying order: start and end of lane 0, of lane 1, ... (2 per lane)."""
@@ -113,10 +119,10 @@ class StationKeepingMission:
 
     kind: ClassVar[Literal["station_keeping"]] = "station_keeping"
     center_m: Vec2
-    depth_m: float
-    radius_m: float
-    speed_mps: float
-    acceptance_radius_m: float = 5.0
+    depth_m: float = declared(allowed=NON_NEGATIVE)
+    radius_m: float = declared(allowed=POSITIVE)
+    speed_mps: float = declared(allowed=COMMANDED_SPEED_MPS)
+    acceptance_radius_m: float = declared(5.0, POSITIVE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,11 +145,11 @@ class PlannedMission:
 
     kind: ClassVar[Literal["planned"]] = "planned"
     goal_m: Vec2
-    depth_m: float
-    speed_mps: float
-    q_rate_m2_per_s: float = 100.0
-    acceptance_radius_m: float = 5.0
-    lookahead_m: float = 0.0
+    depth_m: float = declared(allowed=NON_NEGATIVE)
+    speed_mps: float = declared(allowed=COMMANDED_SPEED_MPS)
+    q_rate_m2_per_s: float = declared(100.0, POSITIVE)
+    acceptance_radius_m: float = declared(5.0, POSITIVE)
+    lookahead_m: float = declared(0.0, NON_NEGATIVE)
 
     def legs_along(self, route_en_m: Sequence[Vec2]) -> LegsMission:
         """The route (ENU from the launch point, start first) as waypoint legs to the goal.

@@ -236,24 +236,14 @@ class Recorder:
 
     # ------------------------------------------------------------------ static scene
 
-    def log_static_scene(
-        self,
-        *,
-        waypoints_n: np.ndarray | None,
-        vehicle_half_sizes: tuple[float, float, float],
-        surface_z: float = 0.0,
-        seabed_z: float | None = None,
-        tank_half_sizes: tuple[float, float, float] | None = None,
-    ) -> None:
-        """Log what does not change during the run (:func:`twin.record.scene.log_static_scene`)."""
-        scene.log_static_scene(
-            self._rec,
-            waypoints_n=waypoints_n,
-            vehicle_half_sizes=vehicle_half_sizes,
-            surface_z=surface_z,
-            seabed_z=seabed_z,
-            tank_half_sizes=tank_half_sizes,
-        )
+    def log_static_scene(self, **scene_args: Any) -> None:
+        """Log what does not change during the run: :func:`twin.record.scene.log_static_scene`.
+
+        Args:
+            **scene_args: Its keywords (waypoints, the hull's and a tank's half sizes, the
+                surface's and the seabed's heights).
+        """
+        scene.log_static_scene(self._rec, **scene_args)
 
     # ------------------------------------------------------------------ buffered streams
 

@@ -1,6 +1,7 @@
-"""A scenario field's one declaration: its default and what a file may give, on the schema.
+"""A scenario field's one declaration: its default and what a file may give, on its dataclass.
 
-Each field of a scenario table is declared once, on its dataclass in :mod:`scenarios.schema`:
+Each field of a scenario table is declared once, on its dataclass (:mod:`scenarios.schema`, and
+the mission plan's in :mod:`twin.core.mission`, the contract the vehicle flies):
 its type (the annotation), its default (or none: required), the numbers it allows
 (:class:`Range`) or the names it allows (a tuple, or a registry's ``names`` for names a plug-in
 can add), and what it means (the class's ``Attributes:``); its unit is in its name's suffix.
@@ -93,3 +94,12 @@ def declaration(cls: type, name: str) -> Declaration | None:
         if f.name == name:
             return Declaration(f.default, f.metadata.get("allowed"), f.metadata.get("choices"))
     return None
+
+
+# ---- ranges many fields share (a field's own range lives with its dataclass or scenarios.ranges)
+NON_NEGATIVE = Range(0.0)
+POSITIVE = Range(0.0, lo_open=True)
+#: A compass direction in degrees.
+COMPASS_DEG = Range(0.0, 360.0, hi_open=True)
+#: A duration up to a day (a scenario's, a heading leg's).
+DURATION_S = Range(0.0, 86400.0, lo_open=True)
