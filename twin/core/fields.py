@@ -20,7 +20,9 @@ without a second model of every table.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+import math
+import numbers
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +56,26 @@ class Range:
             return f"{'<' if self.hi_open else '<='} {num(self.hi)}"
         left, right = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
         return f"{left}{num(self.lo)}, {num(self.hi)}{right}"
+
+    def check(self, name: str, value: Any) -> None:
+        """Refuse anything but a finite real number in the range (numpy scalars count).
+
+        Raises:
+            ValueError: ``"<name>: <value>; allowed <range>"``.
+        """
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not (ok and math.isfinite(float(value)) and float(value) in self):
+            raise ValueError(f"{name}: {value!r}; allowed {self}")
+
+
+def check_ranges(owner: str, checks: Iterable[tuple[str, Any, Range]]) -> None:
+    """:meth:`Range.check` for each (field, value, range) of a configuration named ``owner``.
+
+    The one range check of the configurations (a compass method's, a sky's, a lens's): the
+    first field out of range is the error, ``"<owner>.<field>: <value>; allowed <range>"``.
+    """
+    for name, value, allowed in checks:
+        allowed.check(f"{owner}.{name}", value)
 
 
 def declared(

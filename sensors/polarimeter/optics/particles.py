@@ -41,6 +41,7 @@ import numpy as np
 
 from sensors.polarimeter.optics.bubbles import BubbleDraw
 from twin.core import options
+from twin.core.fields import Range, check_ranges
 
 ParticleModel = Literal["marine_snow", "ideal"]
 PARTICLE_MODELS = options.PARTICLE_MODELS  # declared in twin.core.options (the scenario offers it)
@@ -75,9 +76,7 @@ class MarineSnow:
             ("d_min_m", self.d_min_m, 1e-5, 1e-2),
             ("reach_m", self.reach_m, 1e-3, 100.0),
         )
-        for name, v, lo, hi in checks:
-            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"MarineSnow.{name}: {v!r}; allowed: [{lo:g}, {hi:g}]")
+        check_ranges("MarineSnow", ((n, v, Range(lo, hi)) for n, v, lo, hi in checks))
         if not (self.d_min_m < self.d_max_m <= 0.05):
             raise ValueError(
                 f"MarineSnow.d_max_m: {self.d_max_m!r}; allowed: ({self.d_min_m:g}, 0.05] m"

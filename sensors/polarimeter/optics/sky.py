@@ -106,6 +106,7 @@ from sensors.polarimeter.optics.blocks import arccos_into, exp_into, is_rotation
 from sensors.polarimeter.optics.cie import CIE_SKY_TYPES, NO_DISC_TYPES
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, sun_vector
 from twin.core.arrays import FloatArray
+from twin.core.fields import Range, check_ranges
 
 Polarization = Literal["rayleigh", "berry"]
 #: The polarization models (the scenario's ``optics.sky_polarization``).
@@ -151,14 +152,17 @@ class SkySpec:
             raise ValueError(
                 f"SkySpec.polarization must be 'rayleigh' or 'berry', got {self.polarization!r}"
             )
-        _check_range("dop_max", self.dop_max, 0.0, 1.0)
-        _check_range("berry_delta_rad", self.berry_delta_rad, 0.0, math.pi / 2, hi_open=True)
-        _check_range("zenith_radiance", self.zenith_radiance, 0.0, math.inf)
-        _check_range("sun_radius_rad", self.sun_radius_rad, 0.0, 0.1)
+        checks = [
+            ("dop_max", self.dop_max, Range(0.0, 1.0)),
+            ("berry_delta_rad", self.berry_delta_rad, Range(0.0, math.pi / 2, hi_open=True)),
+            ("zenith_radiance", self.zenith_radiance, Range(0.0)),
+            ("sun_radius_rad", self.sun_radius_rad, Range(0.0, 0.1)),
+        ]
         if self.sun_relative_radiance is not None:
-            _check_range("sun_relative_radiance", self.sun_relative_radiance, 0.0, math.inf)
-        _check_range("night_radiance", self.night_radiance, 0.0, math.inf)
-        _check_range("wavelength_nm", self.wavelength_nm, 200.0, 2000.0)
+            checks.append(("sun_relative_radiance", self.sun_relative_radiance, Range(0.0)))
+        checks.append(("night_radiance", self.night_radiance, Range(0.0)))
+        checks.append(("wavelength_nm", self.wavelength_nm, Range(200.0, 2000.0)))
+        check_ranges("SkySpec", checks)
 
     @property
     def cie_parameters(self) -> tuple[float, float, float, float, float]:
@@ -172,14 +176,6 @@ class SkySpec:
         if rel is None:
             rel = 0.0 if self.cie_type in NO_DISC_TYPES else 4e5
         return rel * self.zenith_radiance
-
-
-def _check_range(field: str, value: float, lo: float, hi: float, *, hi_open: bool = False) -> None:
-    ok = isinstance(value, int | float | np.floating) and not isinstance(value, bool)
-    ok = ok and math.isfinite(value) and lo <= value and (value < hi if hi_open else value <= hi)
-    if not ok:
-        bracket = ")" if hi_open else "]"
-        raise ValueError(f"SkySpec.{field} must be in [{lo:g}, {hi:g}{bracket}, got {value!r}")
 
 
 def photon_radiance(radiance_w: ArrayLike, wavelength_nm: float) -> FloatArray:

@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.core import options
 from twin.core.arrays import Float64Array as FloatArray
+from twin.core.fields import Range, check_ranges
 
 LensModel = Literal["fresnel", "ideal"]
 LENS_MODELS = options.LENS_MODELS  # declared in twin.core.options (the scenario offers it)
@@ -73,9 +74,7 @@ class LensPolarization:
             ("coating_design_nm", self.coating_design_nm, 200.0, 2000.0),
             ("incidence_fraction", self.incidence_fraction, 0.0, 1.0),
         )
-        for name, v, lo, hi in checks:
-            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"lens.{name}: {v!r}; allowed: [{lo:g}, {hi:g}]")
+        check_ranges("lens", ((n, v, Range(lo, hi)) for n, v, lo, hi in checks))
         s = self.surfaces
         if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s <= 40:
             raise ValueError(f"lens.surfaces: {s!r}; allowed: an integer in [0, 40]")

@@ -21,7 +21,6 @@ import abc
 import dataclasses
 import datetime as dt
 import math
-import numbers
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -32,6 +31,7 @@ from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
 from twin.core.ephemeris import sun_direction_enu
 from twin.core.extensions import COMPASS_METHODS
+from twin.core.fields import Range, check_ranges
 from twin.core.frames import euler_to_dcm, wrap_pi
 
 
@@ -63,21 +63,17 @@ class CompassContext:
     sun_enu: FloatArray | None = None
 
     def __post_init__(self) -> None:
-        checks = (
-            ("latitude_deg", self.latitude_deg, -90.0, 90.0),
-            ("longitude_deg", self.longitude_deg, -180.0, 360.0),
-            ("roll_rad", self.roll_rad, -math.pi, math.pi),
-            ("pitch_rad", self.pitch_rad, -math.pi / 2, math.pi / 2),
-            ("depth_m", self.depth_m, 0.0, 12000.0),
-            ("water_index", self.water_index, 1.0, 2.0),
+        check_ranges(
+            "CompassContext",
+            (
+                ("latitude_deg", self.latitude_deg, Range(-90.0, 90.0)),
+                ("longitude_deg", self.longitude_deg, Range(-180.0, 360.0)),
+                ("roll_rad", self.roll_rad, Range(-math.pi, math.pi)),
+                ("pitch_rad", self.pitch_rad, Range(-math.pi / 2, math.pi / 2)),
+                ("depth_m", self.depth_m, Range(0.0, 12000.0)),
+                ("water_index", self.water_index, Range(1.0, 2.0)),
+            ),
         )
-        for name, v, lo, hi in checks:
-            # numbers.Real admits numpy scalars (np.float32 is not a float subclass).
-            ok = isinstance(v, numbers.Real) and not isinstance(v, bool)
-            if not (ok and math.isfinite(float(v)) and lo <= float(v) <= hi):
-                raise ValueError(
-                    f"CompassContext.{name}: {v!r} is out of range; allowed [{lo:g}, {hi:g}]"
-                )
 
     @property
     def c_b_h(self) -> FloatArray:

@@ -72,6 +72,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.core.calibration import CameraCalibration, StokesGrid
+from twin.core.fields import Range, check_ranges
 from twin.onboard.compass.base import (
     CompassFix,
     CompassMethod,
@@ -141,9 +142,7 @@ class RoiaConfig:
         ]
         if self.zenith_radius_deg is not None:
             checks.append(("zenith_radius_deg", self.zenith_radius_deg, 0.5, 45.0))
-        for name, v, lo, hi in checks:
-            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"RoiaConfig.{name}: {v!r}; allowed [{lo:g}, {hi:g}]")
+        check_ranges("RoiaConfig", ((n, v, Range(lo, hi)) for n, v, lo, hi in checks))
         if self.stokes_grid not in ("interpolate", "superpixel"):
             raise ValueError(f"RoiaConfig.stokes_grid: {self.stokes_grid!r}")
         if not (isinstance(self.iterations, int) and 0 <= self.iterations <= 10):

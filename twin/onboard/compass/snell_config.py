@@ -7,10 +7,10 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from twin.core.calibration import StokesGrid
+from twin.core.fields import Range, check_ranges
 
 
 @dataclass(frozen=True)
@@ -120,9 +120,7 @@ class SnellConfig:
             ("azimuth_floor_deg", self.azimuth_floor_deg, 0.0, 90.0),
             ("tilt_sigma_deg", self.tilt_sigma_deg, 0.0, 90.0),
         )
-        for name, v, lo, hi in checks:
-            if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"SnellConfig.{name}: {v!r}; allowed [{lo:g}, {hi:g}]")
+        check_ranges("SnellConfig", ((n, v, Range(lo, hi)) for n, v, lo, hi in checks))
         if self.stokes_grid not in ("interpolate", "superpixel"):
             raise ValueError(
                 f"SnellConfig.stokes_grid: {self.stokes_grid!r}; "
