@@ -65,12 +65,15 @@ def test_the_validation_page_is_generated_from_the_results_on_disk() -> None:
 
 
 def test_every_number_the_validation_page_reads_from_the_suite_is_recorded_by_a_test() -> None:
-    # Each quantity page_numbers.py asks checks.json for is one a `measures` test records, so that
+    # Each quantity the page asks checks.json for is one a `measures` test records, so that
     # rerunning validation/checks.py refreshes it (a renamed quantity fails here, not silently).
-    claims = (ROOT / "validation" / "page_numbers.py").read_text()
+    numbers = (ROOT / "validation" / "page_numbers.py").read_text()
     asked = set(
-        re.findall(r"(?:_one\(r, |_max_abs\(r, |\.measured\()[\"']([a-z0-9_]+)[\"']", claims)
+        re.findall(r"(?:_one\(r, |_max_abs\(r, |\.measured\()[\"']([a-z0-9_]+)[\"']", numbers)
     )
+    # ... and the {key:spec} fields of the claims' measured_lines templates.
+    claims = (ROOT / "validation" / "page_claims.py").read_text()
+    asked |= set(re.findall(r"\{([a-z][a-z0-9_]*)(?::[a-z0-9.%]*)?\}", claims))
     assert len(asked) > 20
     recorded = set()
     for path in (ROOT / "tests").rglob("test_*.py"):

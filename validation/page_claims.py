@@ -16,21 +16,37 @@ CLAIMS = (
         "The steady speed where the propeller's thrust equals the hull's drag, against REMUS 100's"
         " about 2.5 m/s (Allen et al. 2000).",
         (n.CHECKS,),
-        n.top_speed,
+        n.measured_lines(
+            "- steady speed at 1525 rpm, ρ = 1026 kg/m³: {top_speed_1525rpm_mps:.2f} m/s",
+        ),
     ),
     Claim(
         "Roll righting period after a 30° release",
         "The period of the roll oscillation in MuJoCo against the linearised coupled sway–roll "
         "model's eigenvalue (Fossen 2021).",
         (n.CHECKS,),
-        n.righting,
+        n.measured_lines(
+            (
+                "- measured period {righting_period_s:.3f} s; the linearised model's "
+                "{righting_period_model_s:.3f} s"
+            ),
+        ),
     ),
     Claim(
         "15° rudder turn at 1.5 m/s",
         "The plant in MuJoCo against Fossen's 6-DOF equations integrated with scipy, same wrench, "
         "no MuJoCo.",
         (n.CHECKS,),
-        n.turn_cruise,
+        n.measured_lines(
+            (
+                "- turning radius {turn_1p5mps_radius_m:.2f} m; the independent integration's "
+                "{turn_1p5mps_radius_reference_m:.2f} m"
+            ),
+            (
+                "- yaw rate at 2, 5, 10, 60 and 110 s: at most "
+                "{turn_1p5mps_yaw_rate_max_rel_diff:pct} from the integration's"
+            ),
+        ),
     ),
     Claim(
         "15° rudder turn at 1525 rpm (ρ = 1026)",
@@ -48,25 +64,50 @@ CLAIMS = (
         "The straight-running heel against the closed form W z_g sin φ = Q from the propeller "
         "model.",
         (n.CHECKS,),
-        n.heel,
+        n.measured_lines(
+            (
+                "- 1525 rpm: {heel_1525rpm_deg:.2f}° measured, "
+                "{heel_1525rpm_closed_form_deg:.2f}° from W z_g sin φ = Q"
+            ),
+        ),
     ),
     Claim(
         "Neutral buoyancy, 60 s at rest",
         "A neutrally buoyant vehicle released at 10 m with no command.",
         (n.CHECKS,),
-        n.rest,
+        n.measured_lines(
+            (
+                "- depth change after 60 s: {rest_60s_depth_change_m:sig} m; horizontal drift "
+                "{rest_60s_horizontal_drift_m:sig} m"
+            ),
+        ),
     ),
     Claim(
         "Passive vehicle in a 0.3 m/s current",
         "A vehicle at rest, beam-on to a 0.3 m/s current, must drift with the water.",
         (n.CHECKS,),
-        n.current,
+        n.measured_lines(
+            (
+                "- horizontal velocity after 120 s within {current_drift_velocity_error_mps:sig} "
+                "m/s of the current's"
+            ),
+        ),
     ),
     Claim(
         "IMU white noise and Allan deviation",
         "The lig2024 IMU model's output against its datasheet densities (IEEE-952 read-off).",
         (n.CHECKS,),
-        n.imu,
+        n.measured_lines(
+            (
+                "- white noise σ against density × √rate, every axis: within "
+                "{imu_white_std_vs_spec_max_rel:pct}"
+            ),
+            (
+                "- Allan deviation at τ = 1 s against the ARW and VRW: "
+                "{imu_allan_1s_vs_spec_min_abs_rel:pct} to {imu_allan_1s_vs_spec_max_abs_rel:pct}"
+                " (300 s at 100 Hz)"
+            ),
+        ),
     ),
     Claim(
         "Plant real-time factor, 10-minute mission, one core",
@@ -187,14 +228,27 @@ CLAIMS = (
         "INS vs pyins on a 300 s manoeuvre",
         "The strapdown mechanization against python-ins on the same increments and gravity.",
         (n.CHECKS,),
-        n.pyins,
+        n.measured_lines(
+            (
+                "- after 300 s: position {ins_vs_pyins_300s_position_m:sig2} m, height "
+                "{ins_vs_pyins_300s_height_m:sig2} m, velocity "
+                "{ins_vs_pyins_300s_velocity_mps:sig2} m/s, attitude "
+                "{ins_vs_pyins_300s_attitude_rad:sig2} rad apart"
+            ),
+        ),
     ),
     Claim(
         "Filter consistency with the paper's IMU",
         "The 15-state filter's attitude NEES at rest with solar and gravity aiding "
         "([navigation.md](navigation.md)).",
         (n.CHECKS,),
-        n.nees,
+        n.measured_lines(
+            (
+                "- mean attitude NEES (3 dof, after 60 s): {nees_attitude_imu_tuning:.2f} with "
+                "the IMU-derived tuning, {nees_attitude_paper_tuning:.0f} with the paper's "
+                "printed P0/Q"
+            ),
+        ),
     ),
     Claim(
         "INS + 15-state filter alone",

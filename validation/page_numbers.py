@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Callable
 
 from page import Results, g, md_table, pct, pick
 
@@ -20,33 +21,47 @@ def _one(r: Results, key: str) -> float:
     return value
 
 
+class _Number:
+    """A measured value in a template: ``{key:.2f}`` as format() has it, ``{key:pct}`` a
+    percentage, ``{key:sig2}`` two significant digits (:func:`page.g`)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def __format__(self, spec: str) -> str:
+        if spec == "pct":
+            return pct(self.value)
+        if spec.startswith("sig"):
+            return g(self.value, int(spec[3:] or 3))
+        return format(self.value, spec)
+
+
+class _Measured(dict):
+    """The suite's measurements by name, for ``str.format_map`` (a missing one is an error)."""
+
+    def __init__(self, r: Results) -> None:
+        super().__init__()
+        self.r = r
+
+    def __missing__(self, key: str) -> _Number:
+        return _Number(_one(self.r, key))
+
+
+def measured_lines(*templates: str) -> Callable[[Results], list[str]]:
+    """A claim's body: lines whose ``{key:spec}`` fields are what ``measures`` tests recorded."""
+
+    def body(r: Results) -> list[str]:
+        values = _Measured(r)
+        return [t.format_map(values) for t in templates]
+
+    return body
+
+
 def _max_abs(r: Results, key: str) -> float:
     return max(abs(v) for v in r.measured(key))
 
 
 # ---- the vehicle --------------------------------------------------------------------------------
-
-
-def top_speed(r: Results) -> list[str]:
-    return [
-        f"- steady speed at 1525 rpm, ρ = 1026 kg/m³: {_one(r, 'top_speed_1525rpm_mps'):.2f} m/s"
-    ]
-
-
-def righting(r: Results) -> list[str]:
-    return [
-        f"- measured period {_one(r, 'righting_period_s'):.3f} s; the linearised model's "
-        f"{_one(r, 'righting_period_model_s'):.3f} s"
-    ]
-
-
-def turn_cruise(r: Results) -> list[str]:
-    return [
-        f"- turning radius {_one(r, 'turn_1p5mps_radius_m'):.2f} m; the independent "
-        f"integration's {_one(r, 'turn_1p5mps_radius_reference_m'):.2f} m",
-        "- yaw rate at 2, 5, 10, 60 and 110 s: at most "
-        f"{pct(_one(r, 'turn_1p5mps_yaw_rate_max_rel_diff'))} from the integration's",
-    ]
 
 
 def turn_full(r: Results) -> list[str]:
@@ -81,27 +96,6 @@ def turn_full(r: Results) -> list[str]:
     )
 
 
-def heel(r: Results) -> list[str]:
-    return [
-        f"- 1525 rpm: {_one(r, 'heel_1525rpm_deg'):.2f}° measured, "
-        f"{_one(r, 'heel_1525rpm_closed_form_deg'):.2f}° from W z_g sin φ = Q"
-    ]
-
-
-def rest(r: Results) -> list[str]:
-    return [
-        f"- depth change after 60 s: {g(_one(r, 'rest_60s_depth_change_m'))} m; horizontal "
-        f"drift {g(_one(r, 'rest_60s_horizontal_drift_m'))} m"
-    ]
-
-
-def current(r: Results) -> list[str]:
-    return [
-        "- horizontal velocity after 120 s within "
-        f"{g(_one(r, 'current_drift_velocity_error_mps'))} m/s of the current's"
-    ]
-
-
 def plant_rtf(r: Results) -> list[str]:
     d = r.json("benchmarks/results/plant_rtf.json")
     return [
@@ -112,16 +106,6 @@ def plant_rtf(r: Results) -> list[str]:
 
 
 # ---- sensors and optics -------------------------------------------------------------------------
-
-
-def imu(r: Results) -> list[str]:
-    return [
-        "- white noise σ against density × √rate, every axis: within "
-        f"{pct(_one(r, 'imu_white_std_vs_spec_max_rel'))}",
-        "- Allan deviation at τ = 1 s against the ARW and VRW: "
-        f"{pct(_one(r, 'imu_allan_1s_vs_spec_min_abs_rel'))} to "
-        f"{pct(_one(r, 'imu_allan_1s_vs_spec_max_abs_rel'))} (300 s at 100 Hz)",
-    ]
 
 
 def snell_window(r: Results) -> list[str]:
@@ -380,11 +364,6 @@ def hardware(r: Results) -> list[str]:
     ]
 
 
-def _paper_methods(r: Results) -> list[str]:
-    d = r.json("validation/results/paper_methods.json")
-    return [f"- {len(d['results'])} departures switched one at a time on {d['frames']} frames"]
-
-
 # ---- gravity ------------------------------------------------------------------------------------
 
 
@@ -425,23 +404,6 @@ def gravity(r: Results) -> list[str]:
 
 
 # ---- navigation ---------------------------------------------------------------------------------
-
-
-def pyins(r: Results) -> list[str]:
-    return [
-        f"- after 300 s: position {g(_one(r, 'ins_vs_pyins_300s_position_m'), 2)} m, height "
-        f"{g(_one(r, 'ins_vs_pyins_300s_height_m'), 2)} m, velocity "
-        f"{g(_one(r, 'ins_vs_pyins_300s_velocity_mps'), 2)} m/s, attitude "
-        f"{g(_one(r, 'ins_vs_pyins_300s_attitude_rad'), 2)} rad apart"
-    ]
-
-
-def nees(r: Results) -> list[str]:
-    return [
-        f"- mean attitude NEES (3 dof, after 60 s): {_one(r, 'nees_attitude_imu_tuning'):.2f} with"
-        " the IMU-derived tuning, "
-        f"{_one(r, 'nees_attitude_paper_tuning'):.0f} with the paper's printed P0/Q"
-    ]
 
 
 # ---- speed --------------------------------------------------------------------------------------
