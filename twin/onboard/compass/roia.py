@@ -68,8 +68,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration, StokesGrid
 from twin.core.fields import Range, check_ranges
@@ -83,6 +85,7 @@ from twin.onboard.compass.base import (
 )
 from twin.onboard.compass.geometry import meridian_basis
 from twin.onboard.compass.working_frame import evectors_h, to_stokes
+from twin.onboard.polarization import PolarizationImage
 
 
 @dataclass(frozen=True)
@@ -223,6 +226,18 @@ def p_scattered(a_s: float, a_p: FloatArray, dphi: FloatArray) -> FloatArray:
     return np.arctan2(num, den)
 
 
+class _Region(NamedTuple):
+    """The zenith region of one frame (eqs. 4–8) and the geometry the later stages need."""
+
+    pol: PolarizationImage
+    rays_c: FloatArray
+    region: NDArray[np.bool_]
+    radius: float
+    beta: float
+    c_b_h: FloatArray
+    c_c_h: FloatArray
+
+
 class RoiaMethod(CompassMethod):
     """ROI-A: attitude-adaptive zenith region, Fresnel to air, superposition, E-vector sun."""
 
@@ -231,10 +246,43 @@ class RoiaMethod(CompassMethod):
     config_type = RoiaConfig
 
     def solve_frame(self, frame: Frame) -> CompassFix:
-        cfg = self.config
-        raw, calibration, ctx, sun_enu = frame.raw, frame.calibration, frame.ctx, frame.sun_enu
-        el_sun = frame.sun_elevation_rad
-        # ---- zenith region (eqs. 4–8) --------------------------------------------------------
+        region = self._zenith_region(frame)
+        if isinstance(region, CompassFix):
+            return region
+        ev = self._region_evectors(frame, region)
+        if isinstance(ev, CompassFix):
+            return ev
+        n_use, w0, psi_p, a_p, phi_p = ev
+        # ---- Fresnel to air (eqs. 9–11) --------------------------------------------------------
+        n_w, n_a = frame.ctx.water_index, self.config.n_air
+        if n_w > n_a:
+            i_p = np.arcsin(np.clip(n_w / n_a * np.sin(a_p), -1.0, 1.0))
+            ratio = (n_a * np.cos(i_p) + n_w * np.cos(a_p)) / (
+                n_w * np.cos(i_p) + n_a * np.cos(a_p)
+            )
+            # The refracted solar zenith.
+            a_s = math.asin(min(1.0, math.cos(frame.sun_elevation_rad) * n_a / n_w))
+        else:  # camera in air: nothing to convert, no in-water scattering
+            i_p, ratio, a_s = a_p, np.ones_like(a_p), math.pi / 2 - frame.sun_elevation_rad
+        p_air = np.arctan2(ratio * np.sin(psi_p), np.cos(psi_p))  # eq. 11, quadrant kept
+        e_air = _air_evector(i_p, phi_p, p_air)  # eqs. 13, 17 at the air direction
+        # ---- solar vector, then superposition passes (eqs. 12–18) --------------------------------
+        w = w0
+        k = np.zeros_like(w0)
+        s, lam, vecs = self._eigen(e_air, w)
+        for _ in range(self.config.iterations if n_w > n_a else 0):
+            phi_s = math.atan2(float(s[1]), float(s[0]))
+            p_sca = p_scattered(a_s, a_p, phi_s - phi_p)  # eq. 12
+            den = np.sin(p_sca - psi_p)
+            k = np.sin(psi_p - p_air) / np.where(np.abs(den) < 1e-9, 1e-9, den)  # eq. 15
+            k = np.clip(k, -self.config.k_max, self.config.k_max)
+            w = w0 / (1.0 + np.abs(k))
+            s, lam, vecs = self._eigen(e_air, w)
+        return self._fix(frame, region, n_use, e_air, w, k, s, lam, vecs)
+
+    def _zenith_region(self, frame: Frame) -> _Region | CompassFix:
+        """Eqs. 4–8: the zenith region's pixels and their Stokes, or why there is none."""
+        cfg, calibration, ctx = self.config, frame.calibration, frame.ctx
         radius = radius0 = (
             math.radians(cfg.zenith_radius_deg)
             if cfg.zenith_radius_deg is not None
@@ -268,7 +316,7 @@ class RoiaMethod(CompassMethod):
             v0, v1, u0, u1 = _pixel_box(calibration, zu_px, zv_px, r_px)
         else:
             v0, v1, u0, u1 = zenith_crop(calibration, zen_c, radius)
-        pol = to_stokes(raw[v0:v1, u0:u1], calibration, cfg.stokes_grid, origin=(u0, v0))
+        pol = to_stokes(frame.raw[v0:v1, u0:u1], calibration, cfg.stokes_grid, origin=(u0, v0))
         if cfg.stokes_grid == "superpixel":
             jj, ii = np.arange((u1 - u0) // 2), np.arange((v1 - v0) // 2)
             uu, vv = np.meshgrid(u0 + 2.0 * jj + 0.5, v0 + 2.0 * ii + 0.5)
@@ -281,6 +329,13 @@ class RoiaMethod(CompassMethod):
             region = valid & (np.hypot(uu - zu_px, vv - zv_px) <= r_px)  # eq. 7
         else:
             region = valid & (rays_c @ zen_c >= math.cos(radius))  # eq. 7 on the sphere
+        return _Region(pol, rays_c, region, radius, beta, c_b_h, c_c_h)
+
+    def _region_evectors(
+        self, frame: Frame, rg: _Region
+    ) -> tuple[int, FloatArray, FloatArray, FloatArray, FloatArray] | CompassFix:
+        """The usable pixels' weights and E-vectors in the level frame, or why too few."""
+        cfg, pol, region = self.config, rg.pol, rg.region
         n_region = int(region.sum())
         if n_region < cfg.min_pixels:
             return no_fix(self.name, f"zenith region has {n_region} pixels < {cfg.min_pixels}")
@@ -297,7 +352,7 @@ class RoiaMethod(CompassMethod):
             return no_fix(
                 self.name, f"too few polarized zenith pixels ({n_use} < {cfg.min_pixels})", n_use
             )
-        d, e = evectors_h(rays_c[use], pol.aop[use], calibration, c_c_h)
+        d, e = evectors_h(rg.rays_c[use], pol.aop[use], frame.calibration, rg.c_c_h)
         dop = pol.dop[use].astype(np.float64)
         if cfg.weighting == "unit":
             w0 = np.ones_like(dop)
@@ -308,39 +363,29 @@ class RoiaMethod(CompassMethod):
         psi_p = np.arctan2(np.sum(e * e_ph, -1), np.sum(e * e_th, -1))  # AoP from the meridian
         a_p = np.arccos(np.clip(d[:, 2], -1.0, 1.0))
         phi_p = np.arctan2(d[:, 1], d[:, 0])
-        # ---- Fresnel to air (eqs. 9–11) --------------------------------------------------------
-        n_w, n_a = ctx.water_index, cfg.n_air
-        if n_w > n_a:
-            i_p = np.arcsin(np.clip(n_w / n_a * np.sin(a_p), -1.0, 1.0))
-            ratio = (n_a * np.cos(i_p) + n_w * np.cos(a_p)) / (
-                n_w * np.cos(i_p) + n_a * np.cos(a_p)
-            )
-            a_s = math.asin(min(1.0, math.cos(el_sun) * n_a / n_w))  # refracted solar zenith
-        else:  # camera in air: nothing to convert, no in-water scattering
-            i_p, ratio, a_s = a_p, np.ones_like(a_p), math.pi / 2 - el_sun
-        p_air = np.arctan2(ratio * np.sin(psi_p), np.cos(psi_p))  # eq. 11, quadrant kept
-        e_air = _air_evector(i_p, phi_p, p_air)  # eqs. 13, 17 at the air direction
-        # ---- solar vector, then superposition passes (eqs. 12–18) --------------------------------
-        w = w0
-        k = np.zeros_like(w0)
-        s, lam, vecs = self._eigen(e_air, w)
-        for _ in range(cfg.iterations if n_w > n_a else 0):
-            phi_s = math.atan2(float(s[1]), float(s[0]))
-            p_sca = p_scattered(a_s, a_p, phi_s - phi_p)  # eq. 12
-            den = np.sin(p_sca - psi_p)
-            k = np.sin(psi_p - p_air) / np.where(np.abs(den) < 1e-9, 1e-9, den)  # eq. 15
-            k = np.clip(k, -cfg.k_max, cfg.k_max)
-            w = w0 / (1.0 + np.abs(k))
-            s, lam, vecs = self._eigen(e_air, w)
+        return n_use, w0, psi_p, a_p, phi_p
+
+    def _fix(
+        self,
+        frame: Frame,
+        rg: _Region,
+        n_use: int,
+        e_air: FloatArray,
+        w: FloatArray,
+        k: FloatArray,
+        s: FloatArray,
+        lam: FloatArray,
+        vecs: FloatArray,
+    ) -> CompassFix:
+        """The fix from the solar vector: its ambiguity, quality and covariance."""
         el_est = math.asin(max(-1.0, min(1.0, float(s[2]))))
-        if el_est < math.radians(cfg.min_elevation_deg):
+        if el_est < math.radians(self.config.min_elevation_deg):
             return no_fix(
                 self.name,
                 f"solar vector at the horizon (elevation {math.degrees(el_est):.1f}°): "
                 "eq. 22's 180° ambiguity undecided",
                 n_use,
             )
-        # ---- quality and covariance ----------------------------------------------------------
         r = e_air @ s
         n = r.size
         sigma2 = float(np.sum(w * r * r) / np.sum(w)) * n / max(n - 2, 1)
@@ -353,21 +398,21 @@ class RoiaMethod(CompassMethod):
         except np.linalg.LinAlgError:
             return no_fix(self.name, "singular zenith-region geometry", n_use)
         cov_h = tb @ cov_t @ tb.T
-        c_h_b = c_b_h.T
+        c_h_b = rg.c_b_h.T
         sun_body = c_h_b @ s
         cov_b = c_h_b @ cov_h @ c_h_b.T
         gap = float(lam[1] / lam[0]) if lam[0] > 0 else float("inf")
         return finish_fix(
             self.name,
             sun_body,
-            ctx,
-            sun_enu,
+            frame.ctx,
+            frame.sun_enu,
             cov_b,
             pixels_used=n_use,
             residual=math.sqrt(max(sigma2, 0.0)),
             eigen_gap=gap if math.isfinite(gap) else 1e12,
-            zenith_radius_rad=radius,
-            tilt_rad=beta,
+            zenith_radius_rad=rg.radius,
+            tilt_rad=rg.beta,
             mean_abs_k=float(np.mean(np.abs(k))),
             elevation_est_rad=el_est,
         )
