@@ -1,6 +1,6 @@
 """The sky's scattered light over a water, per sky shape: the second half of the light-field table.
 
-For one water body and sea (:class:`sensors.polarimeter.optics.rt.table.WaterKey`) and one sky shape
+For one water body and sea (:class:`sensors.polarimeter.optics.rt.grid.WaterKey`) and one sky shape
 (:class:`SkyKey`: CIE type, polarization model, DoP maximum, Berry's δ; the sky's scale cancels,
 everything is per unit irradiance), :class:`SkyTable` holds all the scattered light of the **sky
 model's own sky** — its radiance distribution and its polarization for the sun at each of the
