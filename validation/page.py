@@ -80,7 +80,11 @@ class Results:
             return list(csv.DictReader(fh))
 
     def table(self, rel: str, heading: str, index: int = 0) -> list[dict[str, str]]:
-        """The ``index``-th Markdown table after the first heading line containing ``heading``."""
+        """The ``index``-th Markdown table of the section whose heading contains ``heading``.
+
+        The section ends at the next heading of any level: a table is read from its own section
+        only, never from the one after it.
+        """
         lines = self.text(rel).splitlines()
         start = next((i for i, s in enumerate(lines) if s.startswith("#") and heading in s), None)
         if start is None:
@@ -88,7 +92,7 @@ class Results:
         tables: list[list[str]] = []
         current: list[str] = []
         for line in lines[start + 1 :]:
-            if line.startswith("#") and tables and not current:
+            if line.startswith("#"):
                 break
             if line.startswith("|"):
                 current.append(line)
@@ -111,19 +115,25 @@ class Results:
         return [float(v) for v in values]
 
     def made(self, rel: str) -> str:
-        """'commit abc123456789, 2026-12-06' for the file, from its provenance."""
+        """'commit abc123456789, 2026-12-06' for the file, from its provenance (a report that
+        draws on runs of several commits names each)."""
         if rel.endswith(".json"):
             data = self.json(rel)
             block = data.get("provenance") or data.get("meta", {}).get("provenance") or {}
             commit = block.get("commit")
             date = (block.get("created_utc") or data.get("date") or "")[:10]
+            commits = [commit[:12]] if commit else []
         else:
+            # A report names the commit of each run it draws on: all of them, the latest date.
             text = self.text(rel)
-            m = re.search(r"commit ([0-9a-f]{7,40})", text)
-            commit = m.group(1) if m else None
-            d = re.search(r"20\d\d-\d\d-\d\d", text)
-            date = d.group(0) if d else ""
-        parts = [f"commit {commit[:12]}" if commit else "no commit recorded"]
+            commits = list(
+                dict.fromkeys(c[:12] for c in re.findall(r"commit ([0-9a-f]{7,40})", text))
+            )
+            date = max(re.findall(r"20\d\d-\d\d-\d\d", text), default="")
+        if not commits:
+            parts = ["no commit recorded"]
+        else:
+            parts = [("commit " if len(commits) == 1 else "commits ") + ", ".join(commits)]
         if date:
             parts.append(date)
         return ", ".join(parts)
