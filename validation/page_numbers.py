@@ -182,6 +182,7 @@ def sensitivity(r: Results) -> list[str]:
     by_setting: dict[str, list[dict[str, str]]] = defaultdict(list)
     for row in rows:
         by_setting[row["setting"]].append(row)
+    # The first setting is the sourced one; each other changes one input to an end of its range.
     base = {(x["water"], x["depth (m)"]): x for x in next(iter(by_setting.values()))}
     out = []
     for setting, cells in list(by_setting.items())[1:]:
@@ -196,7 +197,7 @@ def sensitivity(r: Results) -> list[str]:
             [
                 setting,
                 f"{moves['POL zenith']:.2f}°",
-                f"{moves[next(iter(list(moves)[1:]))]:.2f}°",
+                f"{moves["LIG zenith, the paper's method"]:.2f}°",
                 f"{moves['window DoP max']:.3f}",
             ]
         )
@@ -264,13 +265,14 @@ def snell_attitude(r: Results) -> list[str]:
     yaw = r.csv(f"{CAMPAIGNS}/snell_attitude/groups.csv")
     roll = r.csv(f"{CAMPAIGNS}/snell_attitude/roll_error_deg/groups.csv")
     pitch = r.csv(f"{CAMPAIGNS}/snell_attitude/pitch_error_deg/groups.csv")
-    total = sum(int(x["n"]) for x in yaw if x["variant"] == "roia") // 2
+    ok = r.csv(f"{CAMPAIGNS}/snell_attitude/ok/groups.csv")  # every frame has an `ok`
     out = []
     for preset in ("phx050s_p_bin4", "phx050s_p"):
         for variant, label in (("snell_paper", "the paper's"), ("snell", "the twin's")):
             rr, n = _pooled(roll, variant, preset=preset)
             pp, _ = _pooled(pitch, variant, preset=preset)
             yy, _ = _pooled(yaw, variant, preset=preset)
+            _, total = _pooled(ok, variant, preset=preset)
             out.append([preset, label, f"{rr:.1f}", f"{pp:.1f}", f"{yy:.0f}", f"{n} of {total}"])
     return [
         *md_table(
