@@ -177,6 +177,9 @@ def lightfield(r: Results) -> list[str]:
     ]
 
 
+LIG_PAPER = "LIG zenith, the paper's method"  # the sensitivity table's column
+
+
 def sensitivity(r: Results) -> list[str]:
     rows = r.table("validation/results/optics_sensitivity.md", "Sensitivity")
     by_setting: dict[str, list[dict[str, str]]] = defaultdict(list)
@@ -186,7 +189,7 @@ def sensitivity(r: Results) -> list[str]:
     base = {(x["water"], x["depth (m)"]): x for x in next(iter(by_setting.values()))}
     out = []
     for setting, cells in list(by_setting.items())[1:]:
-        moves = {"POL zenith": 0.0, "LIG zenith, the paper's method": 0.0, "window DoP max": 0.0}
+        moves = {"POL zenith": 0.0, LIG_PAPER: 0.0, "window DoP max": 0.0}
         for x in cells:
             b = base.get((x["water"], x["depth (m)"]))
             if b is None:
@@ -197,7 +200,7 @@ def sensitivity(r: Results) -> list[str]:
             [
                 setting,
                 f"{moves['POL zenith']:.2f}°",
-                f"{moves["LIG zenith, the paper's method"]:.2f}°",
+                f"{moves[LIG_PAPER]:.2f}°",
                 f"{moves['window DoP max']:.3f}",
             ]
         )
