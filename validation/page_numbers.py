@@ -378,6 +378,9 @@ def gravity(r: Results) -> list[str]:
     length = r.table(rel, "correlation length moves")
     flown = r.table("validation/results/gravity_aided_twin.md", "planned route flown", index=2)
     flown = [x for x in flown if x["matching"] == "on" or x["filter"] == "ins"]
+    plan = r.table("validation/results/gravity_aided_twin.md", "planned route flown", index=0)
+    route = next(x["value"] for x in plan if x["quantity (matching on, steering on LIG/INS)"]
+                 .startswith("planned route"))  # fmt: skip
     return [
         "**PCRB-A\\* on 10 drawn maps (5 km correlation length, an assumption), Q_t as printed:**",
         "",
@@ -399,7 +402,7 @@ def gravity(r: Results) -> list[str]:
         "",
         *md_table(list(length[0]), [list(x.values()) for x in length]),
         "",
-        "**The planned route flown by the twin** (16.5 km, navigation-grade INS):",
+        f"**The planned route flown by the twin** ({route} km planned, navigation-grade INS):",
         "",
         *md_table(
             ["matching", "steering on", "filter", "position RMSE (m)", "RMSE ÷ PCRB"],
