@@ -8,7 +8,8 @@ recorded value with the test that measured it, its outcome and the provenance
 bound); this file only keeps what they saw, so that the validation page quotes measurements
 rather than numbers typed from memory.
 
-    python validation/checks.py            # ~1 min on one core
+    python validation/checks.py            # ~1 min on one core; needs the test extras
+                                           # (pip install -e ".[test]": the tests' oracles)
 """
 
 from __future__ import annotations

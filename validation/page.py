@@ -186,10 +186,10 @@ def render(claims: Sequence[Claim], results: Results) -> str:
         "",
         "What the twin was checked against, one section per claim. Every number on this page is "
         "read from a results file (`validation/results/` for accuracy, `benchmarks/results/` for "
-        "speed, `validation/results/checks.json` for what the test suite measures), each of "
-        "which names its commit, versions, inputs, seed and date; each section links its files "
-        "and says which commit made them. What is not done yet is in [status.md](status.md); "
-        "how to regenerate a file is in its own header.",
+        "speed, `validation/results/checks.json` for what the test suite measures); each "
+        "section links its files and says which commit and date made them, or that a file "
+        "predates the recorded provenance (then its header gives the date and the command to "
+        "run it again). What is not done yet is in [status.md](status.md).",
         "",
     ]
     for claim in claims:
