@@ -63,7 +63,12 @@ from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics import waves as waves_mod
 from sensors.polarimeter.optics.sky import sky_radiance
-from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD, SunPosition, SunTracker
+from sensors.polarimeter.optics.sun import (
+    NIGHT_ELEVATION_RAD,
+    SunPosition,
+    SunTracker,
+    place_cell,
+)
 from sensors.polarimeter.points import PointScatterers
 from sensors.polarimeter.spec import OpticsConfig, PolarimeterSpec, PolarimeterTruth
 from sensors.polarimeter.unit import bench as bench_mod
@@ -321,12 +326,11 @@ class Polarimeter(FastPath, PointScatterers, Sensor):
     def _sun_for(self, world: WorldView) -> SunPosition:
         lat = math.degrees(world.latitude_rad)
         lon = ((math.degrees(world.longitude_rad) + 180.0) % 360.0) - 180.0
-        # One tracker per 0.01° cell (≈ 1 km); within it the direction is turned exactly to the
-        # camera's own place (SunTracker's lat/lon arguments). A tracker per exact place would
-        # pay an SPA batch (~12 ms) on every frame of a moving vehicle.
-        cell = (round(lat * 100), round(lon * 100))
+        # One tracker per 1° cell (optics.sun.place_cell); within it the geometric direction is
+        # turned to the camera's own place and refracted there (SunTracker's lat/lon arguments).
+        cell = place_cell(lat, lon)
         if self._tracker is None or self._tracker_place != cell:
-            self._tracker = SunTracker(cell[0] / 100, cell[1] / 100)
+            self._tracker = SunTracker(float(cell[0]), float(cell[1]))
             self._tracker_place = cell
         return self._tracker(world.utc, lat, lon)
 

@@ -18,8 +18,9 @@ Angles are radians; azimuth is the compass azimuth (clockwise from North, pvlib'
 
 One SPA evaluation costs 5–20 ms (pandas and the full series), too much for every frame of every
 filter variant: :class:`SunTracker` evaluates SPA at knots every 10 s, 64 knots a call, and
-interpolates (the sun moves 0.04° in 10 s; the interpolated direction is within 1e-4° of a single
-SPA call, checked in tests/onboard/test_ephemeris.py and tests/sensors/polarimeter/test_sun.py).
+interpolates the geometric direction, then refracts it at the observer's place as SPA does (the
+sun moves 0.04° in 10 s; the direction is within 1e-4° of a single SPA call at the observer's
+place, checked in tests/onboard/test_ephemeris.py and tests/sensors/polarimeter/test_sun.py).
 
 Night: :data:`NIGHT_ELEVATION_DEG` = −0.833°, the conventional sunset/sunrise of the sun's upper
 limb (solar semi-diameter 0.2667° + standard horizon refraction 0.5667°). SPA applies refraction
@@ -64,6 +65,8 @@ class SunPosition:
         elevation_rad: Refraction-corrected elevation = π/2 − apparent zenith.
         direction_enu: Unit vector(s) towards the sun, ENU, shape (3,) or (N, 3).
         is_night: Apparent elevation below :data:`NIGHT_ELEVATION_DEG`.
+        zenith_rad: Geometric topocentric zenith angle, before refraction (SPA's θ₀); NaN
+            where only the apparent position is known (:class:`SunTracker`).
     """
 
     utc: pd.DatetimeIndex
@@ -72,6 +75,7 @@ class SunPosition:
     elevation_rad: float | FloatArray
     direction_enu: FloatArray
     is_night: bool | NDArray[np.bool_]
+    zenith_rad: float | FloatArray = math.nan
 
 
 def direction_from_zenith_azimuth(
@@ -170,26 +174,39 @@ def sun_position(
         how="numpy",
     )
     zen = np.radians(df["apparent_zenith"].to_numpy(dtype=np.float64))
+    geometric = np.radians(df["zenith"].to_numpy(dtype=np.float64))
     az = np.radians(df["azimuth"].to_numpy(dtype=np.float64)) % (2.0 * math.pi)
     elev = np.radians(df["apparent_elevation"].to_numpy(dtype=np.float64))
     direction = direction_from_zenith_azimuth(zen, az)
     night = elev < NIGHT_ELEVATION_RAD
     if scalar:
         return SunPosition(
-            idx, float(zen[0]), float(az[0]), float(elev[0]), direction[0], bool(night[0])
+            idx,
+            float(zen[0]),
+            float(az[0]),
+            float(elev[0]),
+            direction[0],
+            bool(night[0]),
+            float(geometric[0]),
         )
-    return SunPosition(idx, zen, az, elev, direction, night)
+    return SunPosition(idx, zen, az, elev, direction, night, geometric)
 
 
 class SunTracker:
-    """Per-frame sun positions for one place: SPA on a grid of knots, interpolated.
+    """Per-frame sun positions: SPA's geometric direction on a grid of knots, refracted per place.
 
-    One ``spa_python`` call costs ~5–20 ms (pandas and the full SPA series), too much for every
-    10 Hz frame, while the sun moves only ~0.004°/s. The tracker evaluates SPA (vectorised) on knots
-    ``knot_s`` apart, in batches of ``batch`` knots, caches them, and linearly interpolates the
-    direction vector between the two knots around each instant (then renormalises). The error of
-    linear interpolation is ≤ h²/8 · |d²s/dt²| ≤ h²Ω²/8 with Ω = 7.29e-5 rad/s the Earth's rotation:
-    6.6e-8 rad (4e-6°) for h = 10 s — far below SPA's own ±3e-4°.
+    One ``spa_python`` call costs ~2–20 ms (pandas and the full SPA series), too much for every
+    frame, while the sun moves only ~0.004°/s. The tracker evaluates SPA (vectorised) on knots
+    ``knot_s`` apart, in batches of ``batch`` knots, and keeps SPA's *geometric* topocentric
+    direction (before refraction). Each instant linearly interpolates that direction between
+    its two knots (error ≤ h²Ω²/8 with Ω = 7.29e-5 rad/s the Earth's rotation: 6.6e-8 rad,
+    4e-6°, for h = 10 s), turns it into the observer's ENU frame (:func:`move_enu`: the sun is
+    far, so only the local axes turn), then applies SPA's own refraction correction
+    (``pvlib.spa.atmospheric_refraction_correction``, Reda & Andreas 2004 eq. 42) at the
+    observer's elevation, as SPA would at that place. What the move leaves out is the change of
+    the solar parallax (8.8″ in all) with the place: ≤ 8.8″ · d / R_E, 4e-5° at d = 111 km, so
+    one tracker serves a 1° cell (:func:`sun_direction_enu`) — a vehicle whose estimate drifts
+    does not pay an SPA batch per kilometre. SPA's own uncertainty is ±3e-4°.
 
     Args:
         lat_deg: Geodetic latitude, degrees North.
@@ -197,7 +214,8 @@ class SunTracker:
         knot_s: Knot spacing in seconds, in (0, 600].
         batch: Knots computed per SPA call (≥ 2).
         **spa_kwargs: Passed to :func:`sun_position` (altitude_m, pressure_pa, temperature_c,
-            delta_t_s, atmos_refract_deg).
+            delta_t_s, atmos_refract_deg); the refraction uses the same pressure, temperature
+            and horizon refraction.
     """
 
     def __init__(
@@ -218,6 +236,12 @@ class SunTracker:
             raise ValueError(f"batch must be an integer >= 2, got {batch!r}")
         self.batch = batch
         self.spa_kwargs = spa_kwargs
+        # SPA's refraction inputs (sun_position's defaults): pressure in mbar as SPA takes it.
+        self._pressure_mbar = float(spa_kwargs.get("pressure_pa") or 101325.0) / 100.0
+        t_c = spa_kwargs.get("temperature_c")
+        self._temperature_c = 12.0 if t_c is None else float(t_c)
+        refr = spa_kwargs.get("atmos_refract_deg")
+        self._atmos_refract_deg = 0.5667 if refr is None else float(refr)
         self._knots: dict[int, NDArray[np.float64]] = {}
 
     def _knot(self, k: int) -> NDArray[np.float64]:
@@ -228,9 +252,44 @@ class SunTracker:
             ns = (ks * self.knot_s * 1e9).astype("int64")
             times = pd.DatetimeIndex(ns.astype("datetime64[ns]")).tz_localize("UTC")
             pos = sun_position(times, self.lat_deg, self.lon_deg, **self.spa_kwargs)
-            for kk, d in zip(ks.tolist(), pos.direction_enu, strict=True):
+            geometric = direction_from_zenith_azimuth(pos.zenith_rad, pos.azimuth_rad)
+            for kk, d in zip(ks.tolist(), geometric, strict=True):
                 self._knots[kk] = d
         return self._knots[k]
+
+    def direction(
+        self, t_s: float, lat_deg: float | None = None, lon_deg: float | None = None
+    ) -> NDArray[np.float64]:
+        """The apparent ENU direction at ``t_s`` seconds since the Unix epoch (UTC).
+
+        Args:
+            t_s: The instant.
+            lat_deg: Where the observer is, if not at the tracker's place (a moving vehicle):
+                given together with ``lon_deg``.
+            lon_deg: Longitude of the observer, degrees East.
+        """
+        q = t_s / self.knot_s
+        k = math.floor(q)
+        w = q - k
+        d = (1.0 - w) * self._knot(k) + w * self._knot(k + 1)
+        if lat_deg is not None and lon_deg is not None:
+            d = move_enu(d, self.lat_deg, self.lon_deg, lat_deg, lon_deg)
+        east, north, up = d.tolist()
+        horizontal = math.hypot(east, north)
+        e0 = math.degrees(math.atan2(up, horizontal))
+        e = e0 + self._refraction_deg(e0)
+        if horizontal == 0.0:  # the sun in the zenith: no azimuth to keep
+            return np.array([0.0, 0.0, 1.0 if e > 0 else -1.0])
+        c = math.cos(math.radians(e)) / horizontal
+        return np.array([east * c, north * c, math.sin(math.radians(e))])
+
+    def _refraction_deg(self, e0_deg: float) -> float:
+        """SPA's refraction correction (deg) of a geometric elevation ``e0_deg``."""
+        return float(
+            pvlib.spa.atmospheric_refraction_correction(
+                self._pressure_mbar, self._temperature_c, e0_deg, self._atmos_refract_deg
+            )
+        )
 
     def __call__(
         self,
@@ -238,26 +297,18 @@ class SunTracker:
         lat_deg: float | None = None,
         lon_deg: float | None = None,
     ) -> SunPosition:
-        """The apparent sun position at one instant (interpolated between SPA knots).
+        """The apparent sun position at one instant (:meth:`direction`).
 
         Args:
             utc: The instant.
             lat_deg: Where the observer is now, if not at the tracker's place (a moving vehicle):
-                the direction is turned from the tracker's local ENU frame into the observer's
-                (:func:`move_enu`). Must be given together with ``lon_deg``.
+                must be given together with ``lon_deg``.
             lon_deg: Longitude of the observer, degrees East.
         """
         idx, scalar = _to_utc_index(utc)
         if not scalar:
             raise ValueError("SunTracker takes one instant; use sun_position() for many")
-        t_s = idx.as_unit("ns").asi8[0] / 1e9  # pandas may store us or ns: ask for ns
-        q = t_s / self.knot_s
-        k = math.floor(q)
-        w = q - k
-        d = (1.0 - w) * self._knot(k) + w * self._knot(k + 1)
-        if lat_deg is not None and lon_deg is not None:
-            d = move_enu(d, self.lat_deg, self.lon_deg, lat_deg, lon_deg)
-        d /= np.linalg.norm(d)
+        d = self.direction(idx.as_unit("ns").asi8[0] / 1e9, lat_deg, lon_deg)
         zen = math.atan2(math.hypot(d[0], d[1]), d[2])
         az = math.atan2(d[0], d[1]) % (2.0 * math.pi)
         elev = math.pi / 2 - zen
@@ -277,12 +328,9 @@ def move_enu(
     """A direction to a far body seen from place 0, expressed in the ENU frame of place 1.
 
     The sun is 1.5e11 m away, so moving the observer by kilometres leaves its direction fixed in
-    the Earth frame (1 km over 1.5e8 km turns it by 4e-7°) and only the local axes turn.
-    What this does not carry over is the change of refraction with the new elevation: the local
-    vertical turns by 0.009° per km, and refraction's slope is at most ~0.2 °/° near the horizon
-    (Bennett 1982), so the apparent position is off by < 2e-3° per km at the horizon and < 3e-5°
-    per km above 20° elevation. Trackers are kept per 0.01° cell (≈ 1 km), see
-    :func:`sun_direction_enu`.
+    the Earth frame (1 km over 1.5e8 km turns it by 4e-7°) and only the local axes turn. Turn
+    the geometric direction and refract it at the new place (:meth:`SunTracker.direction`):
+    refraction depends on the elevation at the observer, not at place 0.
     """
     if lat0_deg == lat1_deg and lon0_deg == lon1_deg:
         return np.array(d_enu, dtype=np.float64)
@@ -293,24 +341,59 @@ def move_enu(
 
 _trackers: dict[tuple[int, int], SunTracker] = {}
 
+_EPOCH_AWARE = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+_EPOCH_NAIVE = dt.datetime(1970, 1, 1)
 
-def _place(latitude_deg: float, longitude_deg: float) -> tuple[int, int]:
+
+def epoch_s(utc: dt.datetime | np.datetime64 | pd.Timestamp | str) -> float:
+    """Seconds since the Unix epoch of one instant (naive = UTC), as pandas would give them.
+
+    A ``datetime`` is converted without pandas (~1 µs instead of ~30 µs: this runs on every
+    frame of every filter variant), to the same integer nanoseconds, so the same float.
+    """
+    if type(utc) is dt.datetime:
+        delta = utc - (_EPOCH_NAIVE if utc.tzinfo is None else _EPOCH_AWARE)
+        ns = (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
+        return ns / 1e9
+    idx, scalar = _to_utc_index(utc)
+    if not scalar:
+        raise ValueError("epoch_s takes one instant")
+    return float(idx.as_unit("ns").asi8[0] / 1e9)
+
+
+def place_cell(latitude_deg: float, longitude_deg: float) -> tuple[int, int]:
+    """The 1° cell whose :class:`SunTracker` serves a place (latitude, wrapped longitude).
+
+    Within a cell the geometric direction is turned to the observer's own place and refracted
+    there (:meth:`SunTracker.direction`); what is left is the solar parallax's change, ≤ 4e-5°
+    over a cell. So a vehicle (or an estimate) that moves pays one SPA batch per 111 km. (It
+    was one per 0.01° cell, about a kilometre, while the refraction was taken at the cell's
+    centre: a drifting estimate paid a batch on nearly every frame.)
+    """
     if not (math.isfinite(latitude_deg) and -90.0 <= latitude_deg <= 90.0):
         raise ValueError(f"latitude_deg: {latitude_deg!r}; allowed [-90, 90]")
     if not (math.isfinite(longitude_deg) and -180.0 <= longitude_deg <= 360.0):
         raise ValueError(f"longitude_deg: {longitude_deg!r}; allowed [-180, 360]")
     lon = (longitude_deg + 180.0) % 360.0 - 180.0
-    # One tracker per 0.01° cell (about 1 km): a vehicle crossing cells pays one SPA batch
-    # (~12 ms) per kilometre, and within a cell the direction is turned exactly to the
-    # observer's own place (move_enu). Keyed by 1e-4° before, which cost a batch every 11 m.
-    return round(latitude_deg * 100), round(lon * 100)
+    return round(latitude_deg), round(lon) if round(lon) < 180 else -180
+
+
+def tracker_for(latitude_deg: float, longitude_deg: float) -> SunTracker:
+    """The shared tracker of a place's cell (:func:`place_cell`), made on first use."""
+    key = place_cell(latitude_deg, longitude_deg)
+    tracker = _trackers.get(key)
+    if tracker is None:
+        if len(_trackers) > 1000:
+            _trackers.clear()
+        tracker = _trackers[key] = SunTracker(float(key[0]), float(key[1]))
+    return tracker
 
 
 def sun_zenith_azimuth(
     utc: dt.datetime, latitude_deg: float, longitude_deg: float
 ) -> tuple[float, float]:
     """Apparent zenith and compass azimuth (clockwise from North) of the sun, rad (exact SPA)."""
-    _place(latitude_deg, longitude_deg)
+    place_cell(latitude_deg, longitude_deg)
     pos = sun_position(utc, latitude_deg, (longitude_deg + 180.0) % 360.0 - 180.0)
     return float(pos.apparent_zenith_rad), float(pos.azimuth_rad)
 
@@ -318,12 +401,7 @@ def sun_zenith_azimuth(
 def sun_direction_enu(
     utc: dt.datetime, latitude_deg: float, longitude_deg: float
 ) -> NDArray[np.float64]:
-    """Unit ENU vector towards the sun (apparent position), interpolated between SPA knots."""
-    key = _place(latitude_deg, longitude_deg)
-    tracker = _trackers.get(key)
-    if tracker is None:
-        if len(_trackers) > 1000:
-            _trackers.clear()
-        tracker = _trackers[key] = SunTracker(key[0] * 1e-2, key[1] * 1e-2)
+    """Unit ENU vector towards the sun (apparent position) at a place (:class:`SunTracker`)."""
+    tracker = tracker_for(latitude_deg, longitude_deg)
     lon = (longitude_deg + 180.0) % 360.0 - 180.0
-    return np.asarray(tracker(utc, latitude_deg, lon).direction_enu, dtype=np.float64)
+    return tracker.direction(epoch_s(utc), latitude_deg, lon)

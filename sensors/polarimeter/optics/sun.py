@@ -19,6 +19,7 @@ from twin.core.ephemeris import (
     SunTracker,
     TimeLike,
     direction_from_zenith_azimuth,
+    place_cell,
     sun_position,
 )
 
@@ -30,6 +31,7 @@ __all__ = [
     "TimeLike",
     "direction_from_zenith_azimuth",
     "is_night",
+    "place_cell",
     "sun_position",
     "sun_vector",
 ]
