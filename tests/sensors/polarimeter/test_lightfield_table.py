@@ -258,3 +258,48 @@ def test_workers_caching_the_same_table_at_once_do_not_collide(tmp_path, capsys)
     blocked.write_text("")
     store.save(blocked / "t.npz", arrays)
     assert "could not cache the table" in capsys.readouterr().err
+
+
+def test_derived_arrays_are_computed_once_per_machine_and_read_back_bit_for_bit(
+    tmp_path, monkeypatch, capsys
+):
+    """A table's derived field (the renderer's remainder) is kept; new inputs, a new file."""
+    monkeypatch.setenv("AUV_TWIN_CACHE", str(tmp_path))
+    calls: list[int] = []
+
+    def compute() -> np.ndarray:
+        calls.append(1)
+        return (np.arange(12, dtype=np.float32).reshape(3, 4) / 7).astype(np.float32)
+
+    inputs = (tb.WaterKey.of(wa.jerlov_water("II")), np.ones(3), 12)
+    a = store.derived("x", inputs, compute)
+    b = store.derived("x", inputs, compute)
+    assert len(calls) == 1 and b.dtype == np.float32 and np.array_equal(a, b)
+    store.derived("x", (inputs[0], np.ones(3) * (1 + 1e-16 + 2e-16), 12), compute)
+    assert len(calls) == 2  # an input one ulp away is another array
+    store.derived("y", inputs, compute)
+    assert len(calls) == 3  # another name, another file
+    files = sorted((tmp_path / "lightfield" / "derived").glob("x-*.npy"))
+    assert len(files) == 2
+    # A damaged file is recomputed and rewritten; an unwritable cache warns and computes.
+    for f in files:
+        f.write_bytes(b"not an array")
+    assert np.array_equal(store.derived("x", inputs, compute), a) and len(calls) == 4
+    assert np.array_equal(store.derived("x", inputs, compute), a) and len(calls) == 4
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("AUV_TWIN_CACHE", str(blocker))
+    assert np.array_equal(store.derived("x", inputs, compute), a) and len(calls) == 5
+    assert "could not cache x" in capsys.readouterr().err
+
+
+def test_the_shipped_tables_remainder_is_the_computed_one(tmp_path, monkeypatch):
+    """Read from the cache, the renderer's remainder is the one the table computes."""
+    monkeypatch.setenv("AUV_TWIN_CACHE", str(tmp_path))
+    table = tb.table_for(tb.WaterKey.of(wa.jerlov_water("II")))
+    table.__dict__.pop("remainder", None)
+    first = table.remainder  # computed and written
+    table.__dict__.pop("remainder")
+    again = table.remainder  # read back
+    assert len(list((tmp_path / "lightfield" / "derived").glob("remainder-*.npy"))) == 1
+    assert again.dtype == np.float32 and np.array_equal(first, again)

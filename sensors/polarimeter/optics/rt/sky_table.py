@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sensors.polarimeter.optics.rt import reference
+from sensors.polarimeter.optics.rt import reference, store
 from sensors.polarimeter.optics.rt.grid import DATA_FILE, SUN_ZENITH_AIR_DEG, TABLE_PLANES, WaterKey
 from sensors.polarimeter.optics.rt.poles import smooth
 from sensors.polarimeter.optics.rt.store import cache_dir, per_ed, run_jobs, save
@@ -161,8 +161,13 @@ class SkyTable:
 
         As node values that conserve the bins' means (:func:`decompose.conserve`). What the
         coarse bins keep (:mod:`sensors.polarimeter.optics.rt.decompose`); the renderer adds
-        the reflection per pixel. A wavy sea keeps all of it in the bins.
+        the reflection per pixel. A wavy sea keeps all of it in the bins. Computed once per
+        machine and table (:func:`store.derived`).
         """
+        return store.derived("sky_remainder", (self.water, self.sky, self.field), self._remainder)
+
+    def _remainder(self) -> FloatArray:
+        """:attr:`remainder`, computed."""
         from sensors.polarimeter.optics.rt import decompose
         from sensors.polarimeter.optics.rt.table import REMAINDER_POLE_ROWS, _n_inside, remainder_of
 

@@ -11,9 +11,12 @@ use go under :func:`cache_dir`. Nothing here knows a table's layout (that is
 from __future__ import annotations
 
 import contextlib
+import functools
+import hashlib
 import os
 import secrets
 import sys
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -46,6 +49,52 @@ def save(path: Path, arrays: dict[str, np.ndarray]) -> None:
         with contextlib.suppress(OSError):
             tmp.unlink(missing_ok=True)
         print(f"auv-twin: could not cache the table ({e}); it will be recomputed", file=sys.stderr)
+
+
+@functools.cache
+def _code_digest() -> bytes:
+    """A digest of this package's source: derived arrays are stale when any of it changes."""
+    h = hashlib.blake2b(digest_size=16)
+    for f in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.digest()
+
+
+def derived(name: str, inputs: tuple[object, ...], compute: Callable[[], np.ndarray]) -> np.ndarray:
+    """An array derived from a table, computed once per machine and kept under :func:`cache_dir`.
+
+    A table's derived fields (the remainder the renderer reads, about a second of numpy for the
+    shipped water) would otherwise be recomputed at the start of every process: every CLI run
+    and every campaign worker. The file is named by a digest of ``name``, of ``inputs`` (arrays
+    by dtype, shape and bytes; anything else by ``repr``) and of this package's source code, so
+    changed inputs or changed code give another file, never a stale one. Loaded arrays are the
+    computed ones bit for bit (``.npy``); a file that cannot be read is recomputed and
+    rewritten, and an unwritable cache costs time, not correctness (:func:`save`'s note).
+    """
+    h = hashlib.blake2b(name.encode(), digest_size=16)
+    h.update(_code_digest())
+    for x in inputs:
+        if isinstance(x, np.ndarray):
+            a = np.ascontiguousarray(x)
+            h.update(f"{a.dtype.str}{a.shape}".encode())
+            h.update(a.view(np.uint8).reshape(-1).data)
+        else:
+            h.update(repr(x).encode())
+    path = cache_dir() / "derived" / f"{name}-{h.hexdigest()}.npy"
+    with contextlib.suppress(OSError, ValueError, EOFError):
+        return np.load(path, allow_pickle=False)
+    out = compute()
+    tmp = path.with_name(f"{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp.npy")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.save(tmp, out, allow_pickle=False)
+        tmp.replace(path)
+    except OSError as e:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        print(f"auv-twin: could not cache {name} ({e}); it will be recomputed", file=sys.stderr)
+    return out
 
 
 def run_jobs(args: list[tuple], workers: int) -> list[reference.LightField]:

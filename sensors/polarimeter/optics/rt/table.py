@@ -224,7 +224,22 @@ class LightFieldTable:
         """The smoothed sun field less the aureole's and the reflection's bin means.
 
         (:mod:`sensors.polarimeter.optics.rt.decompose`; the reflection on a flat sea only.)
+        Computed once per machine and table (:func:`store.derived`): about a second of numpy.
         """
+        inputs = (
+            self.key,
+            self.sun,
+            self.aureole,
+            self.aureole_psi_edges_deg,
+            self.theta_edges_deg,
+            self.sun_zenith_water_deg,
+            self.n_phi,
+            tuple(self.planes),
+        )
+        return store.derived("remainder", inputs, self._remainder)
+
+    def _remainder(self) -> FloatArray:
+        """:attr:`remainder`, computed."""
         rem = poles.smooth(self.sun, self.n_phi).astype(np.float64)
         edges = self.theta_edges_deg
         sa = reference.Grid(
