@@ -179,3 +179,95 @@ def correct(c, v, lat, lon, h, bg, ba, e):  # type: ignore[no-untyped-def]
     bg1 = (bg[0] + e[9], bg[1] + e[10], bg[2] + e[11])
     ba1 = (ba[0] + e[12], ba[1] + e[13], ba[2] + e[14])
     return c1, v1, lat - e[6], lon - e[7], h - e[8], bg1, ba1
+
+
+@njit(cache=True, inline="always")
+def _orthonormalize(c):  # type: ignore[no-untyped-def]
+    """:func:`twin.onboard.ins._orthonormalize`: one Newton step towards the nearest rotation."""
+    c0, c1, c2, c3, c4, c5, c6, c7, c8 = c
+    s00 = c0 * c0 + c3 * c3 + c6 * c6
+    s01 = c0 * c1 + c3 * c4 + c6 * c7
+    s02 = c0 * c2 + c3 * c5 + c6 * c8
+    s11 = c1 * c1 + c4 * c4 + c7 * c7
+    s12 = c1 * c2 + c4 * c5 + c7 * c8
+    s22 = c2 * c2 + c5 * c5 + c8 * c8
+    m = (3.0 - s00, -s01, -s02, -s01, 3.0 - s11, -s12, -s02, -s12, 3.0 - s22)
+    p = _mul33(c, m)
+    return (
+        0.5 * p[0], 0.5 * p[1], 0.5 * p[2], 0.5 * p[3], 0.5 * p[4], 0.5 * p[5],
+        0.5 * p[6], 0.5 * p[7], 0.5 * p[8],
+    )  # fmt: skip
+
+
+#: Why :func:`advance_samples` stopped: every sample done; after a step that brought the
+#: covariance's pending time to its step (the caller propagates, then calls again); before a
+#: sample the Python path must take (a time step out of range or a non-finite value: it raises
+#: or skips, as configured, naming the channel).
+DONE, PROPAGATE, REFUSED = 0, 1, 2
+
+
+@njit(cache=True)
+def advance_samples(  # type: ignore[no-untyped-def]
+    ts, ws, fs, start, stop, t, lat, lon, h, v, c, bg, ba, steps, every, max_dt, free_air, earth,
+    pending, cov_step, f_sum, w_sum, n_sum, w2_dt,
+):  # fmt: skip
+    """IMU samples ``start`` … ``stop − 1`` through the INS and the filter's step bookkeeping.
+
+    Per sample, :meth:`twin.onboard.eskf.Eskf.predict_reading`'s arithmetic in its order:
+    the INS step (:meth:`StrapdownIns.step`: bias removal, the rotation-compensated Δv,
+    :func:`advance`, the periodic re-orthonormalization, the clock set to the sample's stamp)
+    and the filter's sums (``Eskf._after_step``). The same IEEE operations as the Python path
+    (no fastmath, no contraction), so its state bit for bit (``tests/onboard/test_imu_batch.py``).
+
+    Args: ts, ws, fs ((n,), (n, 3), (n, 3) float64: stamps, angular rates, specific forces);
+    start, stop (the samples to take); then the INS state (t, lat, lon, h, v, C, b_g, b_a, the
+    step count), its re-orthonormalization period and largest step, the gravity model's flag and
+    constants (:func:`advance`), then the filter's pending covariance time and its step, the
+    sums of f and ω, their count and ∫‖ω‖² dt.
+
+    Returns:
+        (status, next sample, t, lat, lon, h, v, C, ω, f (the last compensated sample), steps,
+        pending, f_sum, w_sum, n_sum, w2_dt); status is :data:`DONE`, :data:`PROPAGATE` or
+        :data:`REFUSED`.
+    """
+    wx = wy = wz = fx = fy = fz = 0.0
+    k = start
+    status = DONE
+    while k < stop:
+        dt = ts[k] - t
+        if not (0.0 < dt <= max_dt):
+            status = REFUSED
+            break
+        w0, w1, w2 = ws[k, 0], ws[k, 1], ws[k, 2]
+        f0, f1, f2 = fs[k, 0], fs[k, 1], fs[k, 2]
+        if not math.isfinite(w0 + w1 + w2 + f0 + f1 + f2):
+            status = REFUSED
+            break
+        wx, wy, wz = w0 - bg[0], w1 - bg[1], w2 - bg[2]
+        fx, fy, fz = f0 - ba[0], f1 - ba[1], f2 - ba[2]
+        h2 = 0.5 * dt * dt
+        dv = (
+            fx * dt + h2 * (wy * fz - wz * fy),
+            fy * dt + h2 * (wz * fx - wx * fz),
+            fz * dt + h2 * (wx * fy - wy * fx),
+        )
+        lat, lon, h, v, c = advance(
+            dt, (wx * dt, wy * dt, wz * dt), dv, lat, lon, h, v, c, free_air, earth
+        )
+        steps += 1
+        if steps % every == 0:
+            c = _orthonormalize(c)
+        t = ts[k]
+        f_sum = (f_sum[0] + fx, f_sum[1] + fy, f_sum[2] + fz)
+        w_sum = (w_sum[0] + wx, w_sum[1] + wy, w_sum[2] + wz)
+        n_sum += 1
+        w2_dt += (wx * wx + wy * wy + wz * wz) * dt
+        pending += dt
+        k += 1
+        if pending >= cov_step:
+            status = PROPAGATE
+            break
+    return (
+        status, k, t, lat, lon, h, v, c, (wx, wy, wz), (fx, fy, fz), steps, pending, f_sum,
+        w_sum, n_sum, w2_dt,
+    )  # fmt: skip

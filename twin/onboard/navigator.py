@@ -37,6 +37,7 @@ from twin.onboard.aids import NavAid
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
 from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
+from twin.onboard.imu_batch import ImuBatch, batchable
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
 #: The variant that uses no compass: INS aided by gravity and depth only.
@@ -147,7 +148,12 @@ class Navigator:
                 f"navigation variant {variant!r} needs a polarimeter calibration; the vehicle "
                 "has none"
             )
-        self.filter = Eskf(self.config.eskf, init)
+        self._filter = Eskf(self.config.eskf, init)
+        # IMU samples received but not yet integrated (imu_batch): integrated, in order, before
+        # anything reads or updates the filter (the ``filter`` property), so that every reader
+        # sees the state the one-by-one path would have given it.
+        self._batch = ImuBatch(self._filter)
+        self._t_imu = init.t  # the INS's time once the batch is integrated
         self.aids: dict[str, NavAid] = dict(aids or {})
         for sensor in self.aids:
             if sensor in (knowledge.imu, knowledge.depth, knowledge.camera, knowledge.gravimeter):
@@ -171,19 +177,24 @@ class Navigator:
         self._m_per_rad = (r_m, r_n * math.cos(math.radians(knowledge.latitude_deg)))
 
     # ---- inputs --------------------------------------------------------------------------------
+    @property
+    def filter(self) -> Eskf:
+        """The variant's filter, every IMU sample received so far integrated."""
+        if self._batch.readings:
+            self._flush()
+        return self._filter
+
+    def _flush(self) -> None:
+        self._batch.flush()
+        self._t_imu = self._filter.t
+
     def on_reading(self, reading: Reading) -> CompassEvent | None:
         """Consume one reading (in delivery order); the compass event when a frame was used."""
         k = self.knowledge
-        f = self.filter
         if reading.sensor == k.imu:
-            if reading.t <= f.t:
-                return None  # the first sample at t = 0 only anchors the clock
-            f.predict_reading(reading)
-            self._rate_b = reading["angular_rate"]  # kept as is: converted only when a fix needs it
-            if self.config.gravity_aiding and f.t >= self._next_gravity_t - 1e-9:
-                f.update_gravity()
-                self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
+            self._on_imu(reading)
             return None
+        f = self.filter
         if reading.sensor == k.depth and self.config.depth_aiding:
             f.update_depth(float(np.asarray(reading["depth_m"]).reshape(-1)[0]))
             return None
@@ -201,6 +212,33 @@ class Navigator:
             self._next_compass_t = reading.t + 1.0 / self.config.compass_rate_hz
             return self._compass(reading)
         return None
+
+    def _on_imu(self, reading: Reading) -> None:
+        """An IMU sample: kept for the next batch (imu_batch), or integrated now when it must be.
+
+        The one-by-one path's decisions, made on the time the INS will have: a sample at or
+        before it only anchors the clock (the first, at t = 0); a gravity update is due when it
+        reaches its time. Each is checked against the integrated filter before it is acted on,
+        so that a skipped non-finite sample changes nothing.
+        """
+        f = self._filter
+        if reading.t <= self._t_imu:
+            self._flush()
+            if reading.t <= f.t:
+                return  # the first sample at t = 0 only anchors the clock
+        if batchable(reading):
+            self._batch.add(reading)
+            self._t_imu = reading.t
+        else:
+            self._flush()
+            f.predict_reading(reading)
+            self._t_imu = f.t
+        self._rate_b = reading["angular_rate"]  # kept as is: converted only when a fix needs it
+        if self.config.gravity_aiding and self._t_imu >= self._next_gravity_t - 1e-9:
+            self._flush()
+            if f.t >= self._next_gravity_t - 1e-9:
+                f.update_gravity()
+                self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
 
     def _compass(self, reading: Reading) -> CompassEvent:
         assert self.method is not None and self.knowledge.calibration is not None

@@ -1,0 +1,98 @@
+"""IMU samples taken in batches give every filter the one-by-one path's state, bit for bit."""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import math
+
+import numpy as np
+import pytest
+
+import scenarios
+from twin.core.messages import Reading
+from twin.onboard import imu_batch
+from twin.onboard.eskf import Eskf, EskfConfig
+from twin.onboard.ins import InsConfig, NavState
+from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
+from twin.sim.build import build_simulation
+
+LAT = math.radians(37.54)
+
+
+def _state(f: Eskf) -> tuple:
+    ins = f.ins
+    return (
+        ins.t, ins.lat, ins.lon, ins.h, ins._v, ins._c, ins._bg, ins._ba, ins._w, ins._f,
+        ins._steps, ins.skipped, f._pending_dt, f._n_sum, f._w2_dt, tuple(f._f_sum),
+        tuple(f._w_sum), f.P.tobytes(), dict(f.counts),
+    )  # fmt: skip
+
+
+def test_a_sea_trials_filters_are_the_one_by_one_paths_bit_for_bit(monkeypatch):
+    """Three variants flown 12 s (compass frames, depth and gravity updates, covariance steps)."""
+    sc = scenarios.load("sea_trial_10m")
+    sc = dataclasses.replace(
+        sc, navigation=dataclasses.replace(sc.navigation, variants=("ins", "pol", "lig"))
+    )
+    batched = build_simulation(sc, 3)
+    batched.fly(12.0)
+    with monkeypatch.context() as m:
+        m.setattr(imu_batch, "batchable", lambda reading: False)
+        m.setattr("twin.onboard.navigator.batchable", lambda reading: False)
+        single = build_simulation(sc, 3)
+        single.fly(12.0)
+    for name, nav in batched.navigators.items():
+        ref = single.navigators[name]
+        assert _state(nav.filter) == _state(ref.filter), name
+        assert [(e.t, e.fix.ok) for e in nav.events] == [(e.t, e.fix.ok) for e in ref.events]
+        assert nav.filter.ins.t == pytest.approx(12.0, abs=0.011)
+    assert batched.navigators["pol"].updates["frames"] >= 10  # the compass ran between batches
+
+
+def _imu(t: float, rng: np.random.Generator, bad: bool = False) -> Reading:
+    w = rng.normal(0.0, 0.02, 3)
+    f = np.array([0.0, 0.0, 9.8]) + rng.normal(0.0, 0.05, 3)
+    if bad:
+        f[1] = math.nan
+    return Reading("imu", t, t, {"angular_rate": w, "specific_force": f})
+
+
+@pytest.mark.parametrize("nonfinite", ["skip", "raise"])
+def test_a_non_finite_sample_in_a_batch_is_skipped_or_named_as_configured(nonfinite: str):
+    cfg = NavigatorConfig(eskf=EskfConfig(ins=InsConfig(on_nonfinite=nonfinite)))
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    rng = np.random.default_rng(7)
+    stream = [_imu(0.01 * k, rng, bad=k == 37) for k in range(400)]
+    nav = Navigator("ins", know, init, cfg)
+    ref = Eskf(cfg.eskf, init)
+    next_g = 1.0 / cfg.gravity_rate_hz
+    if nonfinite == "raise":
+        with pytest.raises(ValueError, match=r"specific_force.*non-finite"):
+            for r in stream:
+                nav.on_reading(r)
+            nav.estimate()
+        return
+    for r in stream:
+        nav.on_reading(r)
+        if r.t > ref.t:  # the one-by-one path, as the navigator took it before batches
+            ref.predict_reading(r)
+            if cfg.gravity_aiding and ref.t >= next_g - 1e-9:
+                ref.update_gravity()
+                next_g += 1.0 / cfg.gravity_rate_hz
+    assert nav.filter.ins.skipped == 1
+    assert _state(nav.filter) == _state(ref)
+
+
+def test_readings_the_batch_cannot_read_take_the_python_step():
+    """A list instead of an array is the Python path's to check (it names the channel)."""
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    nav = Navigator("ins", know, NavState(0.0, LAT, 2.13, -10.0))
+    good = Reading("imu", 0.01, 0.01, {"angular_rate": np.zeros(3), "specific_force": np.ones(3)})
+    assert imu_batch.batchable(good)
+    bad = Reading("imu", 0.02, 0.02, {"angular_rate": np.zeros(3), "specific_force": np.ones(2)})
+    assert not imu_batch.batchable(bad)
+    nav.on_reading(good)
+    with pytest.raises(ValueError, match="specific_force: must have shape"):
+        nav.on_reading(bad)
