@@ -79,3 +79,18 @@ def test_every_number_the_validation_page_reads_from_the_suite_is_recorded_by_a_
     for path in (ROOT / "tests").rglob("test_*.py"):
         recorded |= set(re.findall(r"record_property\(\s*f?\"([a-z0-9_]+)", path.read_text()))
     assert asked <= recorded, sorted(asked - recorded)
+
+
+def test_the_readme_quotes_the_sea_trials_measured_speed() -> None:
+    """The README's real-time factor is the benchmark's last run, not a number typed once."""
+    import json
+
+    d = json.loads((ROOT / "benchmarks" / "results" / "sea_trial_rtf.json").read_text())
+    rows = [r for r in d["rows"]["current"] if len(r["variants"]) == 3]
+    off = next(r for r in rows if not r["recording"])
+    on = next(r for r in rows if r["recording"])
+    quote = (
+        f"**{off['sim_s'] / off['wall_s']:.0f}× real time** on one core "
+        f"({on['sim_s'] / on['wall_s']:.0f}× with the recording"
+    )
+    assert quote in (ROOT / "README.md").read_text(encoding="utf-8")

@@ -304,6 +304,27 @@ def test_images_are_jpeg_by_default(store: LazyStore) -> None:
     assert {v[0] for v in table.column("EncodedImage:media_type").to_pylist()} == {"image/jpeg"}
 
 
+def test_jpeg_images_read_back_in_their_own_colours(tmp_path: Path) -> None:
+    """RGB in, the same RGB out (within JPEG's error): no channel order swapped on the way."""
+    import cv2
+
+    img = np.zeros((32, 48, 3), np.uint8)
+    img[:, :16] = (255, 0, 0)  # red, green, blue bands
+    img[:, 16:32] = (0, 255, 0)
+    img[:, 32:] = (0, 0, 255)
+    with Recorder(tmp_path / "rgb.rrd", recording_id="c", start_utc=START) as rec:
+        rec.log_image("/camera/chase", 0.0, img)
+        rec.log_image("/camera/grey", 0.0, img[..., 1])
+    store = RrdReader(tmp_path / "rgb.rrd").store()
+    for entity, want in (("/camera/chase", img), ("/camera/grey", img[..., 1])):
+        blob = _table(store, entity).column("EncodedImage:blob").to_pylist()[0][0]
+        got = cv2.imdecode(np.frombuffer(bytes(blob), np.uint8), cv2.IMREAD_UNCHANGED)
+        if got.ndim == 3:
+            got = cv2.cvtColor(got, cv2.COLOR_BGR2RGB)
+        assert got.shape == want.shape
+        assert np.abs(got.astype(int) - want.astype(int)).mean() < 8
+
+
 def test_raw_images_when_jpeg_disabled(tmp_path: Path) -> None:
     with Recorder(tmp_path / "raw.rrd", recording_id="r", start_utc=START, jpeg_quality=None) as r:
         r.log_image("/camera/chase", 0.0, np.zeros((4, 6), dtype=np.uint8))

@@ -8,6 +8,7 @@ saturates anyway) with a 1/2.2 gamma.
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -34,23 +35,39 @@ def intensity_u8(
     return (x * 255.0 + 0.5).astype(np.uint8)
 
 
+@functools.cache
+def _colormap_rgb(colormap: int) -> NDArray[np.uint8]:
+    """(256, 1, 3) the RGB colours of an OpenCV colour map, for ``cv2.LUT``.
+
+    ``applyColorMap`` builds its table on every call (0.4 ms at 306×256) and is this table
+    looked up: the image is the same byte for byte (``tests/test_images.py``).
+    """
+    bgr = cv2.applyColorMap(np.arange(256, dtype=np.uint8).reshape(256, 1), colormap)
+    return np.ascontiguousarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+
+
+def _mapped(idx: NDArray[np.uint8], colormap: int, mask: NDArray[np.bool_] | None) -> NDArray:
+    """Colour indices through a map; masked-out pixels black.
+
+    The mask is a copy under it (0.01 ms at 306×256, where the boolean assignment took 0.5 ms).
+    """
+    rgb = cv2.LUT(cv2.merge((idx, idx, idx)), _colormap_rgb(colormap))
+    if mask is None:
+        return rgb
+    return cv2.copyTo(rgb, np.ascontiguousarray(mask, dtype=bool).view(np.uint8))
+
+
 def aop_rgb(aop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
     """AoP in [−π/2, π/2) as RGB with a cyclic map; masked-out pixels black."""
     a = np.asarray(aop, dtype=np.float32)
     idx = np.clip((a + math.pi / 2) / math.pi * 255.0, 0, 255).astype(np.uint8)
-    rgb = cv2.cvtColor(cv2.applyColorMap(idx, cv2.COLORMAP_TWILIGHT_SHIFTED), cv2.COLOR_BGR2RGB)
-    if mask is not None:
-        rgb[~mask] = 0
-    return rgb
+    return _mapped(idx, cv2.COLORMAP_TWILIGHT_SHIFTED, mask)
 
 
 def dop_rgb(dop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
     """DoP in [0, 1] as RGB (viridis); masked-out pixels black."""
     idx = np.clip(np.asarray(dop, dtype=np.float32) * 255.0, 0, 255).astype(np.uint8)
-    rgb = cv2.cvtColor(cv2.applyColorMap(idx, cv2.COLORMAP_VIRIDIS), cv2.COLOR_BGR2RGB)
-    if mask is not None:
-        rgb[~mask] = 0
-    return rgb
+    return _mapped(idx, cv2.COLORMAP_VIRIDIS, mask)
 
 
 def signal_mask(pol: PolarizationImage, min_s0: float = 20.0) -> NDArray[np.bool_]:

@@ -43,6 +43,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+import cv2
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
@@ -391,9 +392,17 @@ class Recorder:
                 f"{entity}: image of dtype {img.dtype} and shape {img.shape}; "
                 "expected uint8 (H, W) or (H, W, 3)"
             )
-        archetype: rr.Image | rr.EncodedImage = rr.Image(img)
-        if self._jpeg_quality is not None:
-            archetype = archetype.compress(jpeg_quality=self._jpeg_quality)
+        archetype: rr.Image | rr.EncodedImage
+        if self._jpeg_quality is None:
+            archetype = rr.Image(img)
+        else:
+            # OpenCV's libjpeg-turbo: a third of the time of rr.Image.compress (PIL) for the
+            # same JPEG quality scale; OpenCV reads three channels as BGR.
+            bgr = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+            ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
+            if not ok:
+                raise ValueError(f"{entity}: OpenCV could not JPEG-encode the image")
+            archetype = rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg")
         self._set_time(t)
         self._rec.log(entity, archetype)
         self._maybe_flush(t)

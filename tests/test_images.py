@@ -1,0 +1,40 @@
+"""The recording's and the renderer's pictures: the colour maps as OpenCV draws them."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from twin.record import images
+
+
+def _reference(idx: np.ndarray, colormap: int, mask: np.ndarray | None) -> np.ndarray:
+    """The maps as they were drawn before the table was kept (applyColorMap on every call)."""
+    rgb = cv2.cvtColor(cv2.applyColorMap(idx, colormap), cv2.COLOR_BGR2RGB)
+    if mask is not None:
+        rgb[~mask] = 0
+    return rgb
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_aop_and_dop_pictures_are_opencvs_colour_maps_byte_for_byte(masked: bool) -> None:
+    rng = np.random.default_rng(3)
+    aop = rng.uniform(-math.pi / 2 - 0.1, math.pi / 2 + 0.1, (256, 306)).astype(np.float32)
+    dop = rng.uniform(-0.1, 1.1, (256, 306)).astype(np.float32)
+    aop[0, :5] = np.nan  # a dark pixel's angle
+    mask = rng.uniform(size=(256, 306)) > 0.3 if masked else None
+    a_idx = np.clip((aop + math.pi / 2) / math.pi * 255.0, 0, 255).astype(np.uint8)
+    d_idx = np.clip(dop * 255.0, 0, 255).astype(np.uint8)
+    aop_img = images.aop_rgb(aop, mask)
+    dop_img = images.dop_rgb(dop, mask)
+    assert aop_img.dtype == np.uint8 and aop_img.shape == (256, 306, 3)
+    np.testing.assert_array_equal(aop_img, _reference(a_idx, cv2.COLORMAP_TWILIGHT_SHIFTED, mask))
+    np.testing.assert_array_equal(dop_img, _reference(d_idx, cv2.COLORMAP_VIRIDIS, mask))
+    if masked:
+        assert not aop_img[~mask].any() and aop_img[mask].any()
+    # A cyclic map: −90° and +90° are the same E-vector, one colour.
+    ends = images.aop_rgb(np.array([[-math.pi / 2, math.pi / 2 - 1e-6]], dtype=np.float32))
+    assert np.abs(ends[0, 0].astype(int) - ends[0, 1].astype(int)).max() <= 3
