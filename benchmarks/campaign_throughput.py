@@ -62,7 +62,9 @@ def measure(spec, **kw) -> dict[str, float]:
 # One worker's start-up, in a fresh interpreter: imports, then three runs of the trial, each split
 # into the build, the first step and the rest (argv[1] = the trial's duration).
 _STARTUP = r"""
-import json, sys, time
+import json, os, sys, time
+if len(sys.argv) > 2:  # pinned to one core (the machine's own ceiling, below)
+    os.sched_setaffinity(0, {int(sys.argv[2])})
 t0 = time.perf_counter()
 import dataclasses
 import scenarios
@@ -97,6 +99,43 @@ def startup(duration: float) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def ceiling(duration: float) -> dict:
+    """The machine's own parallel speed-up: the same trials alone on one core, then on both.
+
+    Two fresh interpreters, each pinned to its own core, fly three trials each at once; one
+    alone flies the same three, before the pair and after it. The flights' mean time (after
+    each worker's start) alone over their mean time in the pair, times two, is what two
+    perfectly scheduled workers could reach here:
+    a shared VM's two vCPUs slow each other down (caches, memory bandwidth, the host's other
+    guests), and no scheduler gets that back.
+    """
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1"}
+
+    def start(core: int) -> subprocess.Popen:
+        return subprocess.Popen(
+            [sys.executable, "-c", _STARTUP, str(duration), str(core)],
+            cwd=root, env=env, stdout=subprocess.PIPE, text=True,
+        )  # fmt: skip
+
+    def flight(p: subprocess.Popen) -> float:
+        out, _ = p.communicate()
+        if p.returncode:
+            raise RuntimeError(f"the ceiling's worker exited with {p.returncode}")
+        return sum(r["rest_s"] for r in json.loads(out.strip().splitlines()[-1])["runs"])
+
+    # Alone before and after the pair: the host's load drifts over a minute.
+    alone = [flight(start(0))]
+    pair = [start(0), start(1)]
+    both = [flight(p) for p in pair]
+    alone.append(flight(start(1)))
+    return {
+        "alone_s": alone,
+        "pair_s": both,
+        "ceiling": 2 * (sum(alone) / 2) / (sum(both) / 2),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--runs", type=int, default=16)
@@ -121,6 +160,7 @@ def main() -> None:
     # After the campaigns, so that numba's on-disk cache is warm, as it is for every worker but
     # the first ever on a checkout (which compiles the kernels once: ~15 s, measured).
     start = startup(args.duration)
+    top = ceiling(args.duration)
     meta = {
         "date": dt.date.today().isoformat(),
         "machine": f"{platform.machine()}, Python {platform.python_version()}, 2 cores",
@@ -130,7 +170,7 @@ def main() -> None:
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "campaign_throughput.json").write_text(
-        json.dumps({**meta, **rows, "startup": start}, indent=2, default=str)
+        json.dumps({**meta, **rows, "startup": start, "ceiling": top}, indent=2, default=str)
     )
     lines = [
         "# Campaign throughput (benchmarks/campaign_throughput.py)",
@@ -158,6 +198,12 @@ def main() -> None:
         "Targets (issue #10): 2 workers >= 1.8x of 1 for both backends; overhead < 5 % of a "
         "60 s trial; issue #31: 2 workers >= 1.9x. Load average at the end: "
         + ", ".join(f"{x:.2f}" for x in os.getloadavg()),
+        "",
+        f"This machine's own ceiling: three {args.duration:g} s trials flew in "
+        f"{top['alone_s'][0]:.2f} s and {top['alone_s'][1]:.2f} s on one core alone (before and "
+        f"after) and in {top['pair_s'][0]:.2f} s and "
+        f"{top['pair_s'][1]:.2f} s with the same on the other core at once, so two perfectly "
+        f"scheduled workers reach at most **{top['ceiling']:.2f}x** here (`ceiling()`).",
         "",
         "## Where a worker's wall time goes",
         "",
