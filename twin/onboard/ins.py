@@ -476,7 +476,7 @@ class StrapdownIns:
         self.t += dt
         self._steps += 1
         if self._steps % self.config.orthonormalize_every == 0:
-            c = _orthonormalize(c)
+            c = mechanization.orthonormalize(c)
         self._c = c
         self._cache.clear()
 
@@ -567,17 +567,3 @@ def _floats3(name: str, value: object) -> Vec3:
         raise ValueError(f"StrapdownIns {name}: must have shape (3,), got {arr.shape}")
     x, y, z = arr.tolist()
     return (float(x), float(y), float(z))
-
-
-def _orthonormalize(c: Mat9) -> Mat9:
-    """One Newton step towards the nearest rotation: C (3I − CᵀC) / 2."""
-    c0, c1, c2, c3, c4, c5, c6, c7, c8 = c
-    # S = CᵀC (symmetric)
-    s00 = c0 * c0 + c3 * c3 + c6 * c6
-    s01 = c0 * c1 + c3 * c4 + c6 * c7
-    s02 = c0 * c2 + c3 * c5 + c6 * c8
-    s11 = c1 * c1 + c4 * c4 + c7 * c7
-    s12 = c1 * c2 + c4 * c5 + c7 * c8
-    s22 = c2 * c2 + c5 * c5 + c8 * c8
-    m = (3.0 - s00, -s01, -s02, -s01, 3.0 - s11, -s12, -s02, -s12, 3.0 - s22)
-    return tuple(0.5 * x for x in _mul33(c, m))  # type: ignore[return-value]

@@ -182,8 +182,12 @@ def correct(c, v, lat, lon, h, bg, ba, e):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _orthonormalize(c):  # type: ignore[no-untyped-def]
-    """:func:`twin.onboard.ins._orthonormalize`: one Newton step towards the nearest rotation."""
+def orthonormalize(c):  # type: ignore[no-untyped-def]
+    """One Newton step towards the nearest rotation: C (3I − CᵀC) / 2 (row-major 9-tuple).
+
+    The INS's, every ``InsConfig.orthonormalize_every`` steps, called from Python and inlined
+    in :func:`advance_samples`.
+    """
     c0, c1, c2, c3, c4, c5, c6, c7, c8 = c
     s00 = c0 * c0 + c3 * c3 + c6 * c6
     s01 = c0 * c1 + c3 * c4 + c6 * c7
@@ -256,7 +260,7 @@ def advance_samples(  # type: ignore[no-untyped-def]
         )
         steps += 1
         if steps % every == 0:
-            c = _orthonormalize(c)
+            c = orthonormalize(c)
         t = ts[k]
         f_sum = (f_sum[0] + fx, f_sum[1] + fy, f_sum[2] + fz)
         w_sum = (w_sum[0] + wx, w_sum[1] + wy, w_sum[2] + wz)
