@@ -13,7 +13,7 @@ import scenarios
 from twin.core.messages import Reading
 from twin.onboard import imu_batch
 from twin.onboard.eskf import Eskf, EskfConfig
-from twin.onboard.ins import InsConfig, NavState
+from twin.onboard.ins import InsConfig, NavState, StrapdownIns
 from twin.onboard.navigator import Navigator, NavigatorConfig, VehicleKnowledge
 from twin.sim.build import build_simulation
 
@@ -96,3 +96,34 @@ def test_readings_the_batch_cannot_read_take_the_python_step():
     nav.on_reading(good)
     with pytest.raises(ValueError, match="specific_force: must have shape"):
         nav.on_reading(bad)
+
+
+def test_a_sensor_that_reuses_its_arrays_cannot_change_a_waiting_sample():
+    """Samples are copied in on arrival: mutating the arrays afterwards changes nothing."""
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    rng = np.random.default_rng(11)
+    stream = [_imu(0.01 * k, rng) for k in range(1, 60)]
+    reused = Navigator("ins", know, init)
+    fresh = Navigator("ins", know, init)
+    w, f = np.empty(3), np.empty(3)  # one pair of arrays, overwritten for every sample
+    for r in stream:
+        w[:] = r["angular_rate"]
+        f[:] = r["specific_force"]
+        reused.on_reading(Reading("imu", r.t, r.t, {"angular_rate": w, "specific_force": f}))
+        fresh.on_reading(r)
+    w[:] = 99.0
+    assert _state(reused.filter) == _state(fresh.filter)
+
+
+def test_a_filter_with_its_own_time_update_takes_its_samples_one_by_one():
+    class OwnGravity(StrapdownIns):
+        def gravity(self, lat: float, h: float) -> float:
+            return 9.80665
+
+    f = Eskf(EskfConfig(), NavState(0.0, LAT, 2.13, -10.0))
+    assert imu_batch.compiled_path(f)
+    f.ins.__class__ = OwnGravity
+    assert not imu_batch.compiled_path(f)
+    with pytest.raises(ValueError, match="one by one"):
+        imu_batch.ImuBatch(f)

@@ -13,7 +13,8 @@ each ``cov_step_s``, and a sample with a time step out of range or a non-finite 
 raises or is skipped, naming the channel, as configured).
 
 A filter whose INS or time update is not the built-in one (an INS with a gravity model of its
-own, a subclass that overrides a step) takes its samples one by one, as before.
+own, a subclass that overrides a step) takes its samples one by one, as before (the navigator
+keeps no batch for it).
 """
 
 from __future__ import annotations
@@ -58,51 +59,53 @@ def batchable(reading: Reading) -> bool:
 
 
 class ImuBatch:
-    """The IMU readings a filter has received but not yet integrated.
+    """The IMU samples a filter has received but not yet integrated (a compiled filter's only).
+
+    Each sample's stamp and channels are copied in when it arrives, so that a sensor which
+    reuses its arrays cannot change a sample waiting here.
 
     Args:
-        f: The filter the samples are for.
+        f: The filter the samples are for; :func:`compiled_path` must hold.
     """
 
     def __init__(self, f: Eskf) -> None:
+        if not compiled_path(f):
+            raise ValueError(
+                "ImuBatch: this filter's time update is not the built-in one; take its "
+                "samples one by one (Eskf.predict_reading)"
+            )
         self.filter = f
         self.readings: list[Reading] = []
-        self._compiled = compiled_path(f)
-        self._ts = np.empty(0)
-        self._ws = np.empty((0, 3))
-        self._fs = np.empty((0, 3))
+        self._ts = np.empty(64)
+        self._ws = np.empty((64, 3))
+        self._fs = np.empty((64, 3))
 
     def __len__(self) -> int:
         return len(self.readings)
 
     def add(self, reading: Reading) -> None:
-        """Keep one IMU reading for the next :meth:`flush`."""
+        """Keep one IMU reading (:func:`batchable`) for the next :meth:`flush`."""
+        k = len(self.readings)
+        if k == self._ts.shape[0]:
+            self._ts = np.concatenate((self._ts, np.empty(k)))
+            self._ws = np.concatenate((self._ws, np.empty((k, 3))))
+            self._fs = np.concatenate((self._fs, np.empty((k, 3))))
+        self._ts[k] = reading.t
+        self._ws[k] = reading.values["angular_rate"]
+        self._fs[k] = reading.values["specific_force"]
         self.readings.append(reading)
 
     def flush(self) -> None:
-        """Integrate every kept reading, in order, as :meth:`Eskf.predict_reading` would."""
+        """Integrate every kept sample, in order, as :meth:`Eskf.predict_reading` would."""
         readings = self.readings
-        if not readings:
+        n = len(readings)
+        if not n:
             return
         self.readings = []
         f = self.filter
-        if not self._compiled:
-            for r in readings:
-                f.predict_reading(r)
-            return
-        n = len(readings)
-        if self._ts.shape[0] < n:
-            size = max(n, 2 * self._ts.shape[0], 64)
-            self._ts = np.empty(size)
-            self._ws = np.empty((size, 3))
-            self._fs = np.empty((size, 3))
-        ts, ws, fs = self._ts, self._ws, self._fs
-        for k, r in enumerate(readings):
-            ts[k] = r.t
-            ws[k] = r.values["angular_rate"]
-            fs[k] = r.values["specific_force"]
         ins = f.ins
         cfg = ins.config
+        ts, ws, fs = self._ts, self._ws, self._fs
         i = 0
         while i < n:
             (status, k, t, lat, lon, h, v, c, w_b, f_b, steps, pending, f_sum, w_sum, n_sum,
@@ -121,6 +124,9 @@ class ImuBatch:
             if status == mechanization.PROPAGATE:
                 f.propagate_covariance()
             elif status == mechanization.REFUSED:
-                f.predict_reading(readings[k])  # raises, or skips and counts, as configured
+                # The Python step raises, or skips and counts, as configured, naming the channel.
+                r = readings[k]
+                kept = {"angular_rate": ws[k].copy(), "specific_force": fs[k].copy()}
+                f.predict_reading(Reading(r.sensor, float(ts[k]), r.t_delivered, kept))
                 k += 1
             i = k

@@ -37,7 +37,7 @@ from twin.onboard.aids import NavAid
 from twin.onboard.compass import CompassContext, CompassFix, create
 from twin.onboard.eskf import Eskf, EskfConfig, NavEstimate, UpdateResult
 from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
-from twin.onboard.imu_batch import ImuBatch, batchable
+from twin.onboard.imu_batch import ImuBatch, batchable, compiled_path
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
 #: The variant that uses no compass: INS aided by gravity and depth only.
@@ -152,7 +152,7 @@ class Navigator:
         # IMU samples received but not yet integrated (imu_batch): integrated, in order, before
         # anything reads or updates the filter (the ``filter`` property), so that every reader
         # sees the state the one-by-one path would have given it.
-        self._batch = ImuBatch(self._filter)
+        self._batch = ImuBatch(self._filter) if compiled_path(self._filter) else None
         self._t_imu = init.t  # the INS's time once the batch is integrated
         self.aids: dict[str, NavAid] = dict(aids or {})
         for sensor in self.aids:
@@ -180,12 +180,13 @@ class Navigator:
     @property
     def filter(self) -> Eskf:
         """The variant's filter, every IMU sample received so far integrated."""
-        if self._batch.readings:
+        if self._batch is not None and self._batch.readings:
             self._flush()
         return self._filter
 
     def _flush(self) -> None:
-        self._batch.flush()
+        if self._batch is not None:
+            self._batch.flush()
         self._t_imu = self._filter.t
 
     def on_reading(self, reading: Reading) -> CompassEvent | None:
@@ -226,7 +227,7 @@ class Navigator:
             self._flush()
             if reading.t <= f.t:
                 return  # the first sample at t = 0 only anchors the clock
-        if batchable(reading):
+        if self._batch is not None and batchable(reading):
             self._batch.add(reading)
             self._t_imu = reading.t
         else:
