@@ -40,7 +40,10 @@ def run_on_ray(
         )
         started = True
     task = ray.remote(num_cpus=1, max_retries=1)(execute_run)
-    refs = {task.remote(r, job): r for r in todo}
+    # The job (the campaign's scenario and settings) goes to the object store once; each task
+    # gets a reference, which Ray resolves before the call, instead of a copy serialized per run.
+    job_ref = ray.put(job)
+    refs = {task.remote(r, job_ref): r for r in todo}
     pending = list(refs)
     try:
         while pending:
