@@ -203,7 +203,7 @@ class SunTracker:
     its two knots (error ≤ h²Ω²/8 with Ω = 7.29e-5 rad/s the Earth's rotation: 6.6e-8 rad,
     4e-6°, for h = 10 s), turns it into the observer's ENU frame (:func:`move_enu`: the sun is
     far, so only the local axes turn), then applies SPA's own refraction correction
-    (``pvlib.spa.atmospheric_refraction_correction``, Reda & Andreas 2004 eq. 42) at the
+    (``pvlib.spa.atmospheric_refraction_correction``, the function SPA itself calls) at the
     observer's elevation, as SPA would at that place. What the move leaves out is the change of
     the solar parallax (8.8″ in all) with the place: ≤ 8.8″ · d / R_E, 4e-5° at d = 111 km, so
     one tracker serves a 1° cell (:func:`sun_direction_enu`) — a vehicle whose estimate drifts
