@@ -26,6 +26,8 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sea_trial_rtf import TIMER  # noqa: E402  (the children's one timer)
 
 # (label, parent label or "", module, class, method, per): "frame" stages are per frame, "step"
 # per physics step, "method" per compass method and frame.
@@ -66,7 +68,8 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     ("guidance and autopilot", "", "twin.sim.step", "Simulation", "control", "step"),
 )  # fmt: skip
 
-_CHILD = r"""
+_CHILD = (
+    r"""
 import collections, dataclasses, functools, importlib, json, os, sys, tempfile, time
 t_start = time.perf_counter()
 try:
@@ -78,20 +81,14 @@ import scenarios
 from twin.app.run import run_scenario
 from twin.sim import step as step_mod
 t_imported = time.perf_counter()
+"""
+    + TIMER
+    + r"""
 acc = collections.defaultdict(float)
 calls = collections.Counter()
 for label, _, mod, cls, name, _ in a["stages"]:
     m = importlib.import_module(mod)
-    owner = getattr(m, cls) if cls else m
-    fn = getattr(owner, name)
-    def timed(*x, _fn=fn, _label=label, **k):
-        t0 = time.perf_counter()
-        try:
-            return _fn(*x, **k)
-        finally:
-            acc[_label] += time.perf_counter() - t0
-            calls[_label] += 1
-    setattr(owner, name, functools.wraps(fn)(timed))
+    wrap_timer(getattr(m, cls) if cls else m, name, label, acc, calls)
 first = {}
 orig_step = step_mod.Simulation.step
 def step(self, cmd, _orig=orig_step):
@@ -121,6 +118,7 @@ print(json.dumps({"imports_s": t_imported - t_start, "run_s": wall,
                   "sim_s": m["sim_time_s"], "frames": m["sensor_readings"].get("polarimeter", 0),
                   "steps": ncalls["physics step"]}))
 """
+)
 
 
 def main() -> int:
