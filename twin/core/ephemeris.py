@@ -49,6 +49,13 @@ _MAX_KNOTS = 100_000
 NIGHT_ELEVATION_DEG = -0.833
 NIGHT_ELEVATION_RAD = math.radians(NIGHT_ELEVATION_DEG)
 
+# SPA's refraction inputs when none are given (pvlib's spa_python defaults): the standard
+# atmosphere's sea-level pressure, 12 °C, and the horizon refraction SPA uses to decide when to
+# refract. One place for them: sun_position and SunTracker's own refraction both read these.
+DEFAULT_PRESSURE_PA = 101325.0
+DEFAULT_TEMPERATURE_C = 12.0
+DEFAULT_ATMOS_REFRACT_DEG = 0.5667
+
 TimeLike = (
     dt.datetime | np.datetime64 | pd.Timestamp | str | Sequence[dt.datetime] | pd.DatetimeIndex
 )
@@ -121,10 +128,10 @@ def sun_position(
     lon_deg: float,
     *,
     altitude_m: float = 0.0,
-    pressure_pa: float = 101325.0,
-    temperature_c: float = 12.0,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+    temperature_c: float = DEFAULT_TEMPERATURE_C,
     delta_t_s: float | None = None,
-    atmos_refract_deg: float = 0.5667,
+    atmos_refract_deg: float = DEFAULT_ATMOS_REFRACT_DEG,
 ) -> SunPosition:
     """Apparent solar position for a place and UTC instant(s), by NREL SPA (pvlib).
 
@@ -237,12 +244,12 @@ class SunTracker:
             raise ValueError(f"batch must be an integer >= 2, got {batch!r}")
         self.batch = batch
         self.spa_kwargs = spa_kwargs
-        # SPA's refraction inputs (sun_position's defaults): pressure in mbar as SPA takes it.
-        self._pressure_mbar = float(spa_kwargs.get("pressure_pa") or 101325.0) / 100.0
-        t_c = spa_kwargs.get("temperature_c")
-        self._temperature_c = 12.0 if t_c is None else float(t_c)
-        refr = spa_kwargs.get("atmos_refract_deg")
-        self._atmos_refract_deg = 0.5667 if refr is None else float(refr)
+        # SPA's refraction inputs, sun_position's defaults where not given (pressure in mbar, as
+        # SPA takes it).
+        given = {k: float(v) for k, v in spa_kwargs.items() if v is not None}
+        self._pressure_mbar = given.get("pressure_pa", DEFAULT_PRESSURE_PA) / 100.0
+        self._temperature_c = given.get("temperature_c", DEFAULT_TEMPERATURE_C)
+        self._atmos_refract_deg = given.get("atmos_refract_deg", DEFAULT_ATMOS_REFRACT_DEG)
         self._knots: dict[int, NDArray[np.float64]] = {}
 
     def _knot(self, k: int) -> NDArray[np.float64]:
