@@ -4,10 +4,11 @@ A frame through the exact chain at every pixel costs ~40 ms at 612×512 (~0.7 s 
 one core. The fast path (``PolarimeterSpec.fast``, the default) runs the exact chain at a coarse
 grid of points, upsamples it bilinearly, and renders exactly every pixel of the *rough* cells:
 near Snell's window edge, around the refracted sun, where single scattering steps at the horizon,
-and on the frame's border. :class:`FastPath` is the part of the
-:class:`~sensors.polarimeter.render.Polarimeter` that does it (its ``camera``, ``pspec``,
-``optics``, ``n_water``, ``_column``, ``_plans``, ``_psf_sigma``, ``_psf_sigma_air`` and
-``_finish``); its error against the exact chain is measured in
+and on the frame's border; the rough cells farther from those features it interpolates from a
+grid of half the stride (the fine level, :mod:`~sensors.polarimeter.fine_grid`).
+:class:`FastPath` is the part of the :class:`~sensors.polarimeter.render.Polarimeter` that does
+it (its ``camera``, ``pspec``, ``optics``, ``n_water``, ``_column``, ``_plans``, ``_psf_sigma``,
+``_psf_sigma_air`` and ``_finish``); its error against the exact chain is measured in
 ``tests/sensors/polarimeter/test_render_fast.py`` and ``validation/fast_path_error.py``.
 """
 
@@ -22,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sensors.polarimeter import chain_kernel
+from sensors.polarimeter.fine_grid import FineGrid, bilinear_into
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
@@ -45,6 +47,16 @@ _EDGE_BAND_IN_CELLS = 5.0  # coarse cells inside Snell's window edge (above the 
 # limit.
 _EDGE_BAND_OUT_CELLS = 0.0
 _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough when this narrow
+# The fine level: a rough cell is rendered exactly only within these narrower bands (counted in
+# coarse cells, as above); the other rough cells are interpolated from a grid of half the stride
+# (the *fine* grid), whose bilinear error falls as (fine stride / distance from the feature)²:
+# ~h²/(32 x²) of S0 at x fine pixels inside the window's edge, where the Fresnel transmission
+# goes as √x. Chosen by measuring the error against the exact chain, per region
+# (validation/fast_path_error.py's fine-cell columns; the thin limit of test_light_limits.py set
+# the edge's: 1.5 cells gave 2.8e-3 of S0 against its 1e-3 bound, 3 cells 9.0e-4).
+_EDGE_EXACT_IN_CELLS = 3.0
+_EDGE_EXACT_OUT_CELLS = 1.5  # (a rough cell outside the edge: one the sun's band reaches)
+_SUN_EXACT_CELLS = 3.0
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
 _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
 # The sky is evaluated at the rays inside Snell's window only when they are fewer than this
@@ -143,6 +155,7 @@ class _FastPlan:
         self._cell_pixels = table.astype(np.int32 if h * w < 2**31 else np.intp)
         self._rays_planar = cam.rays_planar.reshape(3, -1)
         self._shape = (h, w)
+        self.fine = FineGrid(cam, s // 2, psf, hc1, wc1) if s >= 4 and s % 2 == 0 else None
 
     def rough_cells(self, points: NDArray[np.bool_]) -> NDArray[np.intp]:
         """Flat indices of the rough cells, into the (H/s + 1, W/s + 1) cells.
@@ -215,6 +228,9 @@ class FastPath:
     #: Render points under a flat sea with :mod:`~sensors.polarimeter.chain_kernel` (one
     #: compiled pass); False: the numpy chain it is tested against.
     compiled_chain: bool = True
+    #: Interpolate the rough cells outside the narrow bands from the fine grid (module
+    #: constants); False: every rough cell exact, the fast path before the fine level.
+    fine_level: bool = True
 
     def _fast_plan(self, port: port_mod.PortRays) -> _FastPlan | None:
         """The coarse grid for this port (cached), or None where only the exact chain applies."""
@@ -353,10 +369,14 @@ class FastPath:
            and of the scattered light, in photons/s. The lens's polarization mapping is applied
            at the points, so the meridian frame's singularity at the zenith is never
            interpolated, only smooth sensor-plane fields. The exact chain renders every valid
-           pixel of a rough cell; the others are interpolated.
-        3. Snell's window mask: exact in rough cells, elsewhere the nearest point's (a smooth
-           cell lies wholly on one side of the edge). Occluded pixels of smooth cells lose the
-           interpolated direct light (total − scattered at the points).
+           pixel of a rough cell within the narrower bands (``_EDGE_EXACT_*``,
+           ``_SUN_EXACT_CELLS``, the horizon's step, the border); the other rough cells (with
+           :attr:`fine_level`) are interpolated from the fine grid, whose points the exact
+           chain renders; the smooth cells from the coarse grid.
+        3. Snell's window mask: exact in the exact cells, elsewhere the nearest point's (an
+           interpolated cell lies wholly on one side of the edge). Occluded pixels of
+           interpolated cells lose the interpolated direct light (total − scattered at the
+           points).
 
         The bands were chosen by measuring the error against the exact chain
         (``tests/sensors/polarimeter/test_render_fast.py``, ``docs/polarimeter.md``).
@@ -374,12 +394,27 @@ class FastPath:
         # Signed angle from the edge in cells (> 0 outside the window / below the horizon).
         ang = (np.arccos(up) - edge) / cell
         rough = (ang > -_EDGE_BAND_IN_CELLS) & (ang < _EDGE_BAND_OUT_CELLS)
+        # A fine cell's pixels read fine points up to half a cell beyond it: no fine cell may
+        # lie next to the edge on either side.
+        exact = (ang > -_EDGE_EXACT_IN_CELLS) & (ang < _EDGE_EXACT_OUT_CELLS)
         if fc.state is not None:
-            rough |= self._sharp_scattering(fc.state, up, cell)
+            sharp = self._sharp_scattering(fc.state, up, cell)
+            rough |= sharp
+            exact |= sharp
         if fc.sun_look is not None:
-            cos_sun = np.clip(world @ fc.sun_look, -1.0, 1.0)
-            rough |= np.arccos(cos_sun) < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
+            from_sun = np.arccos(np.clip(world @ fc.sun_look, -1.0, 1.0))
+            rough |= from_sun < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
+            exact |= from_sun < _SUN_BAND_RAD + _SUN_EXACT_CELLS * cell
         cells = plan.rough_cells(rough)
+        fine = plan.fine if self.fine_level else None
+        if fine is not None:
+            # The rough cells outside the narrow bands: interpolated from the fine grid.
+            narrow = np.zeros(plan.cell_valid.size, dtype=bool)
+            narrow[plan.rough_cells(exact)] = True
+            exact_cells = cells[narrow[cells]]
+            fine_cells = cells[~narrow[cells]]
+        else:
+            exact_cells, fine_cells = cells, cells[:0]
         # --- the exact chain at the points the smooth cells read --------------------------------
         use = plan.smooth_corners(cells)
         points = plan.points[use]
@@ -401,7 +436,7 @@ class FastPath:
         cv2.copyTo(plan.zeros, plan.invalid, roi)
         flat = st.reshape(-1, 3)
         # --- the exact chain at the valid pixels of the rough cells -----------------------------
-        idx = plan.pixels(cells)
+        idx = plan.pixels(exact_cells)
         st_r, sees_r, _ = self._render_points(
             plan.gather_rays(idx),
             (cam.sensor_basis, idx),
@@ -418,11 +453,47 @@ class FastPath:
         window = window.view(bool)
         win_flat = window.reshape(-1)
         win_flat[idx] = sees_r
+        # --- the fine level: the other rough cells, from the fine grid ---------------------------
+        fine_direct = None
+        if fine_cells.size:
+            assert fine is not None
+            f_idx = plan.pixels(fine_cells)
+            f_pts = fine.points(fine_cells)
+            tot_f, sees_f, scat_f = self._render_points(
+                fine.rays[f_pts], (fine.basis, f_pts), fine.psf[f_pts], c_cn, fc,
+                parts="split" if occ_any else "total",
+            )  # fmt: skip
+            hf, wf = fine.shape
+            grid = np.zeros((hf * wf, 3), dtype=np.float32)
+            grid[f_pts] = tot_f
+            bilinear_into(grid, hf, wf, fine.stride, w, f_idx, flat, False)
+            # A fine cell lies wholly on one side of the window's edge (the edge's cells are
+            # exact): its nearest fine point's side is its pixels'.
+            win_f = np.zeros(hf * wf, dtype=bool)
+            win_f[f_pts] = sees_f
+            win_flat[f_idx] = win_f[fine.nearest(f_idx, w)]
+            if occ_any:
+                assert scat_f is not None
+                grid[f_pts] -= scat_f  # the direct light alone
+                fine_direct = (f_idx, grid)
         window &= valid
         if occ_any:
-            exact_px = np.zeros(h * w, dtype=bool)
-            exact_px[idx] = True
-            lose = np.flatnonzero((occluded & window).reshape(-1) & ~exact_px)
+            # Occluded pixels of interpolated cells lose their interpolated direct light.
+            interpolated = np.ones(h * w, dtype=bool)
+            interpolated[idx] = False
+            lose_mask = (occluded & window).reshape(-1) & interpolated
+            if fine_direct is not None:
+                assert fine is not None
+                f_idx, direct_f = fine_direct
+                on_fine = np.zeros(h * w, dtype=bool)
+                on_fine[f_idx] = True
+                lose_f = np.flatnonzero(lose_mask & on_fine)
+                lose_mask &= ~on_fine
+                if lose_f.size:
+                    hf, wf = fine.shape
+                    bilinear_into(direct_f, hf, wf, fine.stride, w, lose_f, flat, True)
+                    np.maximum(flat[lose_f, 0], 0.0, out=flat[lose_f, 0])
+            lose = np.flatnonzero(lose_mask)
             if lose.size:
                 direct = np.zeros((hc * wc, 3), dtype=np.float32)
                 assert scat_c is not None
