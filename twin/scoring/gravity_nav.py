@@ -33,6 +33,8 @@ from twin.onboard.gravity.pcrb import GainsModel, pcrb_along, rmse_bound_m
 from twin.world.gravity_area import field_at_stored_spacing, gravity_field
 
 if TYPE_CHECKING:
+    from twin.scoring.navigation import VariantScore
+    from twin.scoring.observer import RunScorer
     from twin.sim.step import Simulation
     from twin.world.truth import Truth
 
@@ -48,15 +50,27 @@ class GravityScore:
 
     t: list[float] = field(default_factory=list)
     path_m: list[tuple[float, float]] = field(default_factory=list)
-    errors: dict[str, list[float]] = field(default_factory=dict)
     # When the vehicle declared a planned mission done, and how far from the goal it truly was.
     arrived_s: float | None = None
     goal_miss_m: float | None = None
+    # The scorer's variants, whose samples are this score's (set by the first kept sample).
+    _variants: dict[str, VariantScore] = field(default_factory=dict, repr=False)
 
-    def add(self, sim: Simulation, truth: Truth, samples: dict[str, dict[str, float]]) -> None:
+    @property
+    def errors(self) -> dict[str, list[float]]:
+        """Each variant's horizontal position error at the kept samples (m)."""
+        return {name: v.pos_err for name, v in self._variants.items()}
+
+    def add(self, sim: Simulation, truth: Truth, scorer: RunScorer) -> None:
+        """Keep this truth sample (a run with a stored map only); ``scorer`` has just scored it.
+
+        Every truth sample of such a run is kept, so the variants' own error series are this
+        score's, sample for sample.
+        """
         stored = sim.stored_map
         if stored is None:
             return
+        self._variants = scorer.variants
         e0, n0 = stored.launch_m
         self.t.append(truth.t)
         self.path_m.append((e0 + float(truth.position_n[0]), n0 + float(truth.position_n[1])))
@@ -67,8 +81,6 @@ class GravityScore:
             self.goal_miss_m = math.dist(
                 (float(truth.position_n[0]), float(truth.position_n[1])), mission.goal_m
             )
-        for name, s in samples.items():
-            self.errors.setdefault(name, []).append(s["position_err_m"])
 
     def declared_q(self, sim: Simulation) -> float:
         """The planner's Q_t (m²/s per axis)."""

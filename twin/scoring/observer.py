@@ -33,12 +33,16 @@ class RunScorer:
         self.variants = {name: VariantScore(name) for name in sim.navigators}
         self.fixes = {name: FixScore(name) for name in sim.navigators if name != "ins"}
         self.last_truth: Truth | None = None
-        self.last_samples: dict[str, dict[str, float]] = {}
         self.gravity = GravityScore()
         # Set by the run loop: whether the mission is still active, and when the leg began.
         self.active = True
         self.leg_started_at = 0.0
         self._k = 0
+
+    @property
+    def last_samples(self) -> dict[str, dict[str, float]]:
+        """Each variant's last truth sample: its estimate and errors (for the recorder)."""
+        return {name: v.last_sample() for name, v in self.variants.items() if v._last is not None}
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         counts = self.mission.readings
@@ -73,7 +77,6 @@ class RunScorer:
             self.active,
             truth.t - self.leg_started_at >= SETTLE_S,
         )
-        self.last_samples = {
-            name: self.variants[name].add(nav, truth) for name, nav in sim.navigators.items()
-        }
-        self.gravity.add(sim, truth, self.last_samples)
+        for name, nav in sim.navigators.items():
+            self.variants[name].record(nav, truth)
+        self.gravity.add(sim, truth, self)
