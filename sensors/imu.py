@@ -58,6 +58,7 @@ from typing import Any, ClassVar
 import dm_env
 import numpy as np
 
+from sensors import imu_kernel
 from sensors.base import Sensor, SensorSpec, WorldView
 from sensors.noise import (
     GaussMarkov,
@@ -345,6 +346,10 @@ class ImuErrors:
     accel: TriadErrorState
 
 
+# imu_kernel.sample's constants: WGS84 a and e², the Earth's rate, and the exponent of sin²L.
+_EARTH_CONSTANTS = (earth.A_M, earth.E2, earth.OMEGA_IE, 2.0)
+
+
 class _ErrorModel:
     """Both triads' errors as (2, 3) arrays, row 0 the gyro and row 1 the accelerometer.
 
@@ -434,6 +439,30 @@ class _ErrorModel:
         out += white
         return out
 
+    def measure_compiled(
+        self,
+        gyro: FloatArray,
+        accel: FloatArray,
+        linvel: FloatArray,
+        c_sn: FloatArray,
+        h: float,
+        lat: float,
+        earth_terms: bool,
+        w: FloatArray,
+        dt: float,
+    ) -> FloatArray:
+        """:meth:`measure` of :meth:`Imu._ideal`'s values, in one compiled call (imu_kernel)."""
+        gm = self.gm
+        if dt != gm._dt:
+            gm._set_dt(dt)
+        turn_on, gm_value, rw_value, white_value = self._flat
+        return imu_kernel.sample(
+            gyro, accel, linvel, c_sn, h, lat, earth_terms, _EARTH_CONSTANTS, self._block,
+            turn_on, gm_value, gm._phi.reshape(6), gm._q.reshape(6), rw_value,
+            self.rw.density.reshape(6), dt, self._has_rw, self.white.sigma.reshape(6),
+            white_value, w.reshape(3, 6),
+        )  # fmt: skip
+
     def state(self, row: int) -> TriadErrorState:
         return TriadErrorState(
             bias=self.turn_on[row] + self.gm.value[row] + self.rw.value[row],
@@ -465,6 +494,9 @@ class Imu(Sensor):
     spec_type: ClassVar[type[SensorSpec]] = ImuSpec
     default_site: ClassVar[str] = "imu"
     PRESETS: ClassVar[MappingProxyType[str, ImuSpec]] = IMU_PRESETS
+    #: Sample through :mod:`sensors.imu_kernel` (one compiled call, the same numbers bit for
+    #: bit); False: :meth:`_ideal` and the error model's numpy steps, the reference.
+    compiled: ClassVar[bool] = True
     spec: ImuSpec
 
     def __init__(self, spec: ImuSpec, *, name: str | None = None, site: str | None = None):
@@ -536,7 +568,21 @@ class Imu(Sensor):
         dt = t - self._t_last
         self._t_last = t
         rng.standard_normal(out=self._w)  # always 18 normals, whatever the spec
-        out = self._errors.measure(self._ideal(world), self._w, dt)
+        if self.compiled:
+            pos, c_sn = world.site_pose(self.site)
+            out = self._errors.measure_compiled(
+                world.mj_sensor(self._gyro_sensor),
+                world.mj_sensor(self._accel_sensor),
+                world.mj_sensor(self._linvel_sensor),
+                c_sn,
+                float(pos[2]) - world.surface_z_m,
+                world.latitude_rad,
+                self.spec.earth_kinematics,
+                self._w,
+                dt,
+            )
+        else:
+            out = self._errors.measure(self._ideal(world), self._w, dt)
         return {"angular_rate": out[0:3], "specific_force": out[3:6]}
 
     def current_errors(self) -> ImuErrors:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 
@@ -108,3 +109,55 @@ def wrench_f(nu_r, rudder_rad, stern_rad, n_rps, k, strips):  # type: ignore[no-
     t0 += (1.0 - thrust_deduction) * x_prop
     t3 += torque_on_hull * k_prop
     return t0, t1, t2, t3, t4, t5
+
+
+@njit(cache=True)
+def body_wrench(  # type: ignore[no-untyped-def]
+    xmat, qvel, depth, current, act, ids, passive, bias, k, strips, ma, buoyancy_n, radius,
+    minv, rhs, applied,
+):  # fmt: skip
+    """:meth:`Plant._apply_hydrodynamics_reference`'s arithmetic, in its order: ``applied`` set.
+
+    Args (in order): the body's C_b^n (9,); its free joint's velocities (6,); depth (m); the
+    current (ENU, m/s, (3,)); MuJoCo's activations and the rudder, stern and propeller's indices
+    in them; the joint's passive and bias forces (6,); :meth:`Hydrodynamics.kernel_constants`
+    and the cross-flow strips; the body-frame added-mass diagonal (6,); the buoyancy (N) and the
+    hull's radius (m); (M_RB + M_A)⁻¹ (6, 6) in the body frame; a (6,) scratch; the joint's
+    applied forces (6,), written.
+    """
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = (
+        xmat[0], xmat[1], xmat[2], xmat[3], xmat[4], xmat[5], xmat[6], xmat[7], xmat[8],
+    )  # fmt: skip
+    vx = qvel[0] - current[0]
+    vy = qvel[1] - current[1]
+    vz = qvel[2] - current[2]
+    px, py, pz = qvel[3], qvel[4], qvel[5]
+    bx = r00 * vx + r10 * vy + r20 * vz
+    by = r01 * vx + r11 * vy + r21 * vz
+    bz = r02 * vx + r12 * vy + r22 * vz
+    tau = wrench_f((by, bx, -bz, py, px, -pz), act[ids[0]], act[ids[1]], act[ids[2]], k, strips)
+    sub = (depth + radius) / (2 * radius)
+    buoy = buoyancy_n * (1.0 if sub >= 1.0 else (0.0 if sub <= 0.0 else sub))
+    t0 = tau[1] + r20 * buoy + ma[0] * (py * bz - pz * by)
+    t1 = tau[0] + r21 * buoy + ma[1] * (pz * bx - px * bz)
+    t2 = -tau[2] + r22 * buoy + ma[2] * (px * by - py * bx)
+    t3, t4, t5 = tau[4], tau[3], -tau[5]
+    fx = passive[0] - bias[0]
+    fy = passive[1] - bias[1]
+    fz = passive[2] - bias[2]
+    rhs[0] = r00 * fx + r10 * fy + r20 * fz + t0
+    rhs[1] = r01 * fx + r11 * fy + r21 * fz + t1
+    rhs[2] = r02 * fx + r12 * fy + r22 * fz + t2
+    rhs[3] = passive[3] - bias[3] + t3
+    rhs[4] = passive[4] - bias[4] + t4
+    rhs[5] = passive[5] - bias[5] + t5
+    a = np.dot(minv, rhs)
+    l0 = t0 - ma[0] * a[0]
+    l1 = t1 - ma[1] * a[1]
+    l2 = t2 - ma[2] * a[2]
+    applied[0] = r00 * l0 + r01 * l1 + r02 * l2
+    applied[1] = r10 * l0 + r11 * l1 + r12 * l2
+    applied[2] = r20 * l0 + r21 * l1 + r22 * l2
+    applied[3] = t3 - ma[3] * a[3]
+    applied[4] = t4 - ma[4] * a[4]
+    applied[5] = t5 - ma[5] * a[5]

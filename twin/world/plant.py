@@ -36,6 +36,7 @@ import numpy as np
 from models import SCENES
 from twin.core import earth
 from twin.core.frames import F_FROM_B, dcm_to_euler, euler_to_quat, yaw_to_heading_deg
+from twin.world import hydrodynamics_kernel
 from twin.world.actuators import ACTUATOR_NAMES, ActuatorCommand, CommandLimiter
 from twin.world.current import Current
 from twin.world.hydrodynamics import Hydrodynamics
@@ -103,6 +104,10 @@ class Plant:
         current: The current field (defaults to none).
     """
 
+    #: Apply the hydrodynamics through :func:`hydrodynamics_kernel.body_wrench` (one compiled
+    #: call a step, the same numbers bit for bit); False: the Python reference.
+    compiled: bool = True
+
     def __init__(self, config: PlantConfig, current: Current | None = None):
         if not (-90.0 <= config.latitude_deg <= 90.0):
             raise ValueError(f"latitude_deg = {config.latitude_deg!r}: allowed [-90, 90]")
@@ -154,6 +159,15 @@ class Plant:
         # (M_RB + M_A)^-1 in body coordinates is constant (tests/test_plant.py checks it).
         mujoco.mj_forward(self.model, self.data)
         self._minv_total_b = np.linalg.inv(self.rigid_mass_matrix_b() + np.diag(self._ma_b_diag))
+        # body_wrench's inputs: views of MjData's buffers (fixed for the data's life), the
+        # activations' indices, and a still current.
+        d, i0 = self.data, self._dof
+        self._views = (
+            d.xmat[self._body], d.qvel[i0 : i0 + 6], d.qfrc_passive[i0 : i0 + 6],
+            d.qfrc_bias[i0 : i0 + 6], d.qfrc_applied[i0 : i0 + 6],
+        )  # fmt: skip
+        self._act_ids_t = tuple(self._act_ids)
+        self._still = np.zeros(3)
         self.reset()
 
     # ---- WorldView ---------------------------------------------------------------------------
@@ -284,6 +298,26 @@ class Plant:
         mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_VEL, 0)
 
     def _apply_hydrodynamics(self) -> None:
+        """The hydrodynamic wrench and the added-mass solve, into ``qfrc_applied``.
+
+        Compiled (:func:`twin.world.hydrodynamics_kernel.body_wrench`, one call a step):
+        :meth:`_apply_hydrodynamics_reference` bit for bit (``tests/test_plant.py``). A
+        :class:`Hydrodynamics` whose wrench is not the built-in one takes the reference.
+        """
+        if not self.compiled or type(self.hydro).wrench_f is not Hydrodynamics.wrench_f:
+            self._apply_hydrodynamics_reference()
+            return
+        d = self.data
+        depth = self.surface_z_m - float(d.qpos[self._qpos + 2])
+        cur = self._still if self.current.kind == "none" else self.current.velocity_n(depth)
+        v = self._views
+        hydrodynamics_kernel.body_wrench(
+            v[0], v[1], depth, cur, d.act, self._act_ids_t, v[2], v[3],
+            self.hydro.kernel_constants, self.hydro._strips, self._ma_b_tuple,
+            self._buoyancy_n, self._radius, self._minv_total_b, self._rhs_b, v[4],
+        )  # fmt: skip
+
+    def _apply_hydrodynamics_reference(self) -> None:
         # Plain float arithmetic: on 3- and 6-vectors numpy's per-call overhead costs more than
         # the arithmetic, and this runs every physics step.
         d = self.data
