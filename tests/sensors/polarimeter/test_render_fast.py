@@ -1,7 +1,7 @@
 """The fast path (coarse grid, fine level, exact pixels near the edge and sun) vs the exact chain.
 
 Measured bounds (docs/polarimeter.md), max over every valid pixel of ten scenes (light model 3):
-relative S0 error < 4.5 % (3.6 % measured), AoP error < 3° where DoP > 0.05 and < 1.5° where
+relative S0 error < 4.5 % (3.5 % measured), AoP error < 3° where DoP > 0.05 and < 1.5° where
 DoP > 0.2, |Δ(S1, S2)|/S0 < 0.03 (0.028); Snell's window mask identical. The errors come from the
 table's remainder, linear between nodes 3–4° × 15° apart, with its Monte Carlo noise: the kinks
 at the node lines are what a 1.76° coarse grid cannot follow. They are about the table's own
