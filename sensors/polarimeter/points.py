@@ -20,6 +20,9 @@ from sensors.polarimeter.optics import particles as particles_mod
 from sensors.polarimeter.optics import surface as surface_mod
 from twin.core.arrays import FloatArray
 
+# The marine snow's population (a frozen dataclass: checked once, not per frame).
+_MARINE_SNOW = particles_mod.MarineSnow()
+
 
 class PointScatterers:
     """Bubbles and marine snow, drawn and added per frame (module docstring)."""
@@ -47,7 +50,7 @@ class PointScatterers:
         """The water's marine snow, or None (ideal, or a tank: tap water and milk have none)."""
         if self.optics.particles == "ideal" or self.tank is not None:
             return None
-        return particles_mod.MarineSnow()
+        return _MARINE_SNOW
 
     def _add_points(
         self,
