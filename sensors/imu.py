@@ -506,6 +506,11 @@ class Imu(Sensor):
         self._accel_sensor = f"{self.site}/accelerometer"
         self._linvel_sensor = f"{self.site}/linvel"
         self._w = np.zeros((3, 2, 3))  # [white, GM, RW] x [gyro, accel] x axes
+        # The kernel is Imu._ideal and _ErrorModel.measure: a subclass that overrides either
+        # keeps its own by the Python path.
+        self._kernel_applies = type(self)._ideal is Imu._ideal and (
+            type(self._errors).measure is _ErrorModel.measure
+        )
         self._t_last: float | None = None
 
     def channel_specs(self) -> dict[str, dm_env.specs.Array]:
@@ -568,7 +573,7 @@ class Imu(Sensor):
         dt = t - self._t_last
         self._t_last = t
         rng.standard_normal(out=self._w)  # always 18 normals, whatever the spec
-        if self.compiled:
+        if self.compiled and self._kernel_applies:
             pos, c_sn = world.site_pose(self.site)
             out = self._errors.measure_compiled(
                 world.mj_sensor(self._gyro_sensor),

@@ -55,14 +55,14 @@ _STEP_CELLS = 3.0  # the single-scattering step at the horizon (c·z): rough whe
 # (validation/fast_path_error.py's fine-cell columns; the thin limit of test_light_limits.py set
 # the edge's: 1.5 cells gave 2.8e-3 of S0 against its 1e-3 bound, 3 cells 9.0e-4).
 _EDGE_EXACT_IN_CELLS = 3.0
+_EDGE_EXACT_OUT_CELLS = 1.5  # (a rough cell outside the edge: one the sun's band reaches)
+_SUN_EXACT_CELLS = 3.0
 # The fine level pays from a coarse stride of 8 px (a fine stride of 4): at 2448×2048 a frame's
 # light renders in 41 ms against 49 (136 070 rays against 190 238). At stride 4 (612×512) its
 # bookkeeping costs most of what the ~5 000 rays it saves did: 0.4 ms of the fast path's 7.3 ms
 # a frame in a sea trial, about 1 % of the flight (benchmarks/results/chain_cost.md), for
 # slightly different frames; there the rough cells stay exact and the frames as they were.
 _FINE_FROM_STRIDE = 8
-_EDGE_EXACT_OUT_CELLS = 1.5  # (a rough cell outside the edge: one the sun's band reaches)
-_SUN_EXACT_CELLS = 3.0
 _SUN_BAND_RAD = math.radians(1.0)  # around the (refracted) sun: disc + PSF …
 _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in cells
 # The sky is evaluated at the rays inside Snell's window only when they are fewer than this

@@ -56,3 +56,24 @@ def test_the_compiled_sample_is_the_python_one_bit_for_bit(preset, overrides, mo
         differs += int(not np.array_equal(out[True], sim.plant.data.sensordata[:6]))
     assert steps == 600 and differs > 0  # the errors and Earth terms were applied
     assert dt > 0
+
+
+def test_a_subclass_that_overrides_the_ideal_reading_keeps_it() -> None:
+    """The kernel is Imu._ideal's arithmetic: a subclass with its own takes the Python path."""
+
+    class Offset(Imu):
+        def _ideal(self, world):  # type: ignore[no-untyped-def]
+            return super()._ideal(world) + 1.0
+
+    sc = scenarios.load("sea_trial_10m")
+    sim = build_simulation(sc)
+    base = registry.create("imu", "ideal")
+    assert isinstance(base, Imu)
+    shifted = Offset(base.spec)
+    out = []
+    for imu in (base, shifted):
+        rng = np.random.default_rng(5)
+        imu.reset(sim.plant, rng)
+        r = imu.sample(sim.plant, rng)
+        out.append(np.concatenate([r["angular_rate"], r["specific_force"]]))
+    np.testing.assert_allclose(out[1] - out[0], 1.0, rtol=0, atol=1e-12)

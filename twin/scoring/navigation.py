@@ -95,7 +95,7 @@ class VariantScore:
         return self._nees
 
     def record(self, nav: Navigator, truth: Truth) -> None:
-        """Keep the variant's estimate now and ``truth`` for scoring (module docstring)."""
+        """Keep the variant's estimate now and ``truth``, scored when read (class docstring)."""
         est = nav.estimate()
         east, north = nav.local_en(est)
         raw: _Raw = (
