@@ -195,3 +195,37 @@ def test_a_fix_is_turned_from_its_stamp_to_the_filter_time() -> None:
     a = -0.05  # the body turned +0.05 rad about z since: the sun turned −0.05 in it
     np.testing.assert_allclose(late.sun_body, [0.6 * np.cos(a), 0.6 * np.sin(a), 0.8], atol=1e-12)
     np.testing.assert_allclose(np.trace(late.covariance_body), 6.0, atol=1e-12)
+
+
+def test_the_recordings_filter_series_are_the_one_sample_path_values(tmp_path) -> None:
+    """The recorder logs the filters' samples in batches from the scorer's series; the time
+    series writer reads each sample on its own (VariantScore.last_sample). The same times and
+    values, bit for bit, and none lost at the end of the run (a run not a multiple of the
+    batch)."""
+    import pandas as pd
+    from rrd_helpers import scalars
+
+    from twin.record.observer import NAV_BATCH_SAMPLES
+
+    sc = _short_trial(duration_s=7.3, variants=("ins", "pol"))
+    run_scenario(sc, tmp_path, camera=False, timeseries=True)
+    filters = pd.read_parquet(tmp_path / "timeseries" / "filters.parquet")
+    for name in ("ins", "pol"):
+        rows = filters[filters["variant"] == name]
+        assert len(rows) == 73 and 73 % NAV_BATCH_SAMPLES != 0
+        want_t = [round(t * 1e9) for t in rows["t"]]
+        t, v = scalars(tmp_path / "recording.rrd", f"/nav/{name}/heading_error_deg")
+        assert t == want_t
+        sig3 = 3.0 * rows["heading_sigma_deg"].to_numpy()
+        np.testing.assert_array_equal(
+            np.array(v), np.stack([rows["heading_err_deg"], sig3, -sig3], axis=1)
+        )
+        for entity, cols in (
+            (f"/nav/heading_deg/{name}", ["heading_deg"]),
+            (f"/nav/{name}/attitude_error_deg", ["roll_err_deg", "pitch_err_deg"]),
+            (f"/nav/{name}/position_error_m", ["position_err_m"]),
+            (f"/nav/{name}/nees_attitude", ["nees"]),
+        ):
+            t, v = scalars(tmp_path / "recording.rrd", entity)
+            assert t == want_t, entity
+            np.testing.assert_array_equal(np.array(v), rows[cols].to_numpy(), err_msg=entity)

@@ -156,6 +156,7 @@ def run_scenario(
     # metrics.json with the reason and closes whatever was opened.
     rec: Recorder | None = None
     cam: ChaseCamera | None = None
+    recorder: RunRecorder | None = None
     series: TimeSeriesWriter | None = None
     mcap_log: McapLog | None = None
     scorer = RunScorer(world)
@@ -207,7 +208,7 @@ def run_scenario(
         if mcap_log is not None:
             mcap_log.close()
         if rec is not None:
-            recording_error = _close_recording(rec, world.plant.t, status_text, error)
+            recording_error = _close_recording(rec, world.plant.t, status_text, error, recorder)
             if recording_error is not None and status_text in _FLYING:
                 status_text = "error"
                 error = f"closing the recording failed: {recording_error}"
@@ -289,9 +290,20 @@ def _open_camera(
     return cam
 
 
-def _close_recording(rec: Recorder, t: float, status_text: str, error: str | None) -> str | None:
-    """Log how the run ended and close the file; the failure to do so, or None."""
+def _close_recording(
+    rec: Recorder,
+    t: float,
+    status_text: str,
+    error: str | None,
+    recorder: RunRecorder | None = None,
+) -> str | None:
+    """Close the recording; the failure to do so, or None.
+
+    First the samples the run's recorder still holds, then how the run ended.
+    """
     try:
+        if recorder is not None:
+            recorder.close()
         rec.log_text(t, f"run ended: {status_text}" + (f" ({error})" if error else ""))
         rec.close()
     except Exception as exc:

@@ -373,6 +373,29 @@ class Recorder:
         series.rows.append(row)
         self._maybe_flush(t)
 
+    def log_scalar_rows(
+        self,
+        entity: str,
+        t: Sequence[float],
+        rows: Sequence[Sequence[float]],
+        names: Sequence[str] | None = None,
+    ) -> None:
+        """:meth:`log_scalars` of many samples at once: times ``t`` and one row of values each."""
+        if not len(t):
+            return
+        width = len(rows[0])
+        series = self._series.get(entity)
+        if series is None:
+            series = self._new_series(entity, (width,), names)
+        if any(len(r) != series.width for r in rows) or len(rows) != len(t):
+            raise ValueError(
+                f"{entity}: rows of {sorted({len(r) for r in rows})} values for {len(t)} times, "
+                f"{series.width} values each before; a series' width must not change"
+            )
+        series.t.extend(t)
+        series.rows.extend(list(r) for r in rows)
+        self._maybe_flush(t[-1])
+
     # ------------------------------------------------------------------ immediate streams
 
     def log_image(self, entity: str, t: float, image: np.ndarray) -> None:

@@ -49,6 +49,7 @@ class VariantScore:
     def __init__(self, name: str) -> None:
         self.name = name
         self._t: list[float] = []
+        self._heading: list[float] = []
         self._heading_err: list[float] = []
         self._heading_sigma: list[float] = []
         self._roll_err: list[float] = []
@@ -63,6 +64,12 @@ class VariantScore:
     def t(self) -> list[float]:
         self._settle()
         return self._t
+
+    @property
+    def heading(self) -> list[float]:
+        """The estimated heading at each sample (degrees)."""
+        self._settle()
+        return self._heading
 
     @property
     def heading_err(self) -> list[float]:
@@ -162,6 +169,7 @@ class VariantScore:
         p3 = np.array(cols[13])
         q = np.array(cols[14], dtype=np.float64)
         self._t.extend(t.tolist())
+        self._heading.extend(h.tolist())
         self._heading_err.extend(wrap_deg180(h - h_t).tolist())
         self._roll_err.extend(np.degrees(_wrap_pi(r - r_t)).tolist())
         self._pitch_err.extend(np.degrees(_wrap_pi(p - p_t)).tolist())
