@@ -36,6 +36,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from polarimeter_frame import _best as best_of  # noqa: E402  (the benchmarks' one timer)
 
 # scatter_pixels's arguments after ``out`` (column_kernel.scatter_pixels), to switch parts off.
 _K_NAMES = (
@@ -85,13 +87,9 @@ def _scenes() -> Any:
 
 
 def _best(f: Any, repeats: int) -> float:
+    """The best of ``repeats`` timed calls after a first (warm-up) one."""
     f()
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_of(f, repeats)
 
 
 def per_ray(repeats: int) -> dict[str, Any]:

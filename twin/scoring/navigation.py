@@ -36,6 +36,16 @@ _Raw = tuple[
 _SETTLE_EVERY = 512
 
 
+def _series(attr: str, doc: str) -> property:
+    """A read-only series of :class:`VariantScore`, its pending samples scored first."""
+
+    def get(self: VariantScore) -> list[float]:
+        self._settle()
+        return getattr(self, attr)  # type: ignore[no-any-return]
+
+    return property(get, doc=doc)
+
+
 class VariantScore:
     """Running error statistics of one variant.
 
@@ -59,47 +69,15 @@ class VariantScore:
         self._pending: list[_Raw] = []
         self._last: _Raw | None = None
 
-    # The error series, every sample recorded so far scored.
-    @property
-    def t(self) -> list[float]:
-        self._settle()
-        return self._t
-
-    @property
-    def heading(self) -> list[float]:
-        """The estimated heading at each sample (degrees)."""
-        self._settle()
-        return self._heading
-
-    @property
-    def heading_err(self) -> list[float]:
-        self._settle()
-        return self._heading_err
-
-    @property
-    def heading_sigma(self) -> list[float]:
-        self._settle()
-        return self._heading_sigma
-
-    @property
-    def roll_err(self) -> list[float]:
-        self._settle()
-        return self._roll_err
-
-    @property
-    def pitch_err(self) -> list[float]:
-        self._settle()
-        return self._pitch_err
-
-    @property
-    def pos_err(self) -> list[float]:
-        self._settle()
-        return self._pos_err
-
-    @property
-    def nees(self) -> list[float]:
-        self._settle()
-        return self._nees
+    # The series, every sample recorded so far scored.
+    t = _series("_t", "The truth samples' times (s).")
+    heading = _series("_heading", "The estimated heading at each sample (degrees).")
+    heading_err = _series("_heading_err", "Heading error, estimate − truth (degrees, wrapped).")
+    heading_sigma = _series("_heading_sigma", "The filter's heading σ (degrees).")
+    roll_err = _series("_roll_err", "Roll error (degrees).")
+    pitch_err = _series("_pitch_err", "Pitch error (degrees).")
+    pos_err = _series("_pos_err", "Horizontal position error (m).")
+    nees = _series("_nees", "Attitude NEES (inf where the attitude block is singular).")
 
     def record(self, nav: Navigator, truth: Truth) -> None:
         """Keep the variant's estimate now and ``truth``, scored when read (class docstring)."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -130,20 +131,25 @@ def test_the_full_resolution_fast_frame_matches_the_exact_chain():
     assert e["pol"] < 0.02, e
 
 
-def test_occluded_pixels_keep_only_the_scattered_light_on_the_fast_path_too():
-    """A pier over part of the window: fast and exact frames agree, blocked or not."""
+def _pier_frames(preset: str) -> tuple[Any, Any]:
+    """The fast and the exact camera's truth layers of a frame with a pier over the window."""
     frames = {}
     for fast in (True, False):
         world = SceneWorld(NARROW_PIER)
-        cam = sensors.create("polarimeter", "ideal_bin4", fast=fast)
+        cam = sensors.create("polarimeter", preset, fast=fast)
         assert isinstance(cam, Polarimeter)
         cam.configure(OpticsConfig(jerlov_type="IB"))
         rng = np.random.default_rng(7)
         cam.reset(world, rng)
         cam.sample(world, rng)
         frames[fast] = cam.truth
-    a, b = frames[True], frames[False]
-    assert a is not None and b is not None
+    assert frames[True] is not None and frames[False] is not None
+    return frames[True], frames[False]
+
+
+def test_occluded_pixels_keep_only_the_scattered_light_on_the_fast_path_too():
+    """A pier over part of the window: fast and exact frames agree, blocked or not."""
+    a, b = _pier_frames("ideal_bin4")
     assert a.occluded.any() and a.snell_window.any()  # part of the window is blocked
     assert np.array_equal(a.occluded, b.occluded)
     assert np.array_equal(a.snell_window, b.snell_window)
