@@ -159,13 +159,10 @@ class Plant:
         # (M_RB + M_A)^-1 in body coordinates is constant (tests/test_plant.py checks it).
         mujoco.mj_forward(self.model, self.data)
         self._minv_total_b = np.linalg.inv(self.rigid_mass_matrix_b() + np.diag(self._ma_b_diag))
-        # body_wrench's inputs: views of MjData's buffers (fixed for the data's life), the
-        # activations' indices, and a still current.
-        d, i0 = self.data, self._dof
-        self._views = (
-            d.xmat[self._body], d.qvel[i0 : i0 + 6], d.qfrc_passive[i0 : i0 + 6],
-            d.qfrc_bias[i0 : i0 + 6], d.qfrc_applied[i0 : i0 + 6],
-        )  # fmt: skip
+        # body_wrench's inputs: views of MjData's buffers (kept while the data is this one),
+        # the activations' indices, and a still current.
+        self._views_of: mujoco.MjData | None = None
+        self._views: tuple[np.ndarray, ...] = ()
         self._act_ids_t = tuple(self._act_ids)
         self._still = np.zeros(3)
         self.reset()
@@ -310,6 +307,13 @@ class Plant:
         d = self.data
         depth = self.surface_z_m - float(d.qpos[self._qpos + 2])
         cur = self._still if self.current.kind == "none" else self.current.velocity_n(depth)
+        if self._views_of is not d:
+            i0 = self._dof
+            self._views = (
+                d.xmat[self._body], d.qvel[i0 : i0 + 6], d.qfrc_passive[i0 : i0 + 6],
+                d.qfrc_bias[i0 : i0 + 6], d.qfrc_applied[i0 : i0 + 6],
+            )  # fmt: skip
+            self._views_of = d
         v = self._views
         hydrodynamics_kernel.body_wrench(
             v[0], v[1], depth, cur, d.act, self._act_ids_t, v[2], v[3],
