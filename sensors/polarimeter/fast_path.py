@@ -402,21 +402,24 @@ class FastPath:
         # Signed angle from the edge in cells (> 0 outside the window / below the horizon).
         ang = (np.arccos(up) - edge) / cell
         rough = (ang > -_EDGE_BAND_IN_CELLS) & (ang < _EDGE_BAND_OUT_CELLS)
-        # A fine cell's pixels read fine points up to half a cell beyond it: no fine cell may
-        # lie next to the edge on either side.
-        exact = (ang > -_EDGE_EXACT_IN_CELLS) & (ang < _EDGE_EXACT_OUT_CELLS)
+        sharp = from_sun = None
         if fc.state is not None:
             sharp = self._sharp_scattering(fc.state, up, cell)
             rough |= sharp
-            exact |= sharp
         if fc.sun_look is not None:
             from_sun = np.arccos(np.clip(world @ fc.sun_look, -1.0, 1.0))
             rough |= from_sun < _SUN_BAND_RAD + _SUN_BAND_CELLS * cell
-            exact |= from_sun < _SUN_BAND_RAD + _SUN_EXACT_CELLS * cell
         cells = plan.rough_cells(rough)
         fine = plan.fine if self.fine_level else None
         if fine is not None:
-            # The rough cells outside the narrow bands: interpolated from the fine grid.
+            # The rough cells outside the narrow bands: interpolated from the fine grid. A fine
+            # cell's pixels read fine points up to half a cell beyond it: no fine cell may lie
+            # next to the edge on either side.
+            exact = (ang > -_EDGE_EXACT_IN_CELLS) & (ang < _EDGE_EXACT_OUT_CELLS)
+            if sharp is not None:
+                exact |= sharp
+            if from_sun is not None:
+                exact |= from_sun < _SUN_BAND_RAD + _SUN_EXACT_CELLS * cell
             narrow = np.zeros(plan.cell_valid.size, dtype=bool)
             narrow[plan.rough_cells(exact)] = True
             exact_cells = cells[narrow[cells]]

@@ -252,22 +252,10 @@ def _log_polarimeter(rec: Recorder, reading: Reading, cal: CameraCalibration, tr
 
 def log_nav_sample(rec: Recorder, name: str, t: float, s: dict[str, float]) -> None:
     """Estimated heading, its error against truth with ±3σ bounds, NEES: time series."""
-    rec.log_scalars(f"/nav/heading_deg/{name}", t, np.array([s["heading_deg"]]), names=[name])
-    sig3 = 3.0 * s["heading_sigma_deg"]
-    rec.log_scalars(
-        f"/nav/{name}/heading_error_deg",
-        t,
-        np.array([s["heading_err_deg"], sig3, -sig3]),
-        names=["error", "+3 sigma", "-3 sigma"],
-    )
-    rec.log_scalars(
-        f"/nav/{name}/attitude_error_deg",
-        t,
-        np.array([s["roll_err_deg"], s["pitch_err_deg"]]),
-        names=["roll", "pitch"],
-    )
-    rec.log_scalars(f"/nav/{name}/position_error_m", t, np.array([s["position_err_m"]]))
-    rec.log_scalars(f"/nav/{name}/nees_attitude", t, np.array([s["nees"]]))
+    log_nav_rows(
+        rec, name, [t], [s["heading_deg"]], [s["heading_err_deg"]], [s["heading_sigma_deg"]],
+        [s["roll_err_deg"]], [s["pitch_err_deg"]], [s["position_err_m"]], [s["nees"]],
+    )  # fmt: skip
 
 
 def log_nav_rows(
@@ -282,7 +270,10 @@ def log_nav_rows(
     pos_err: list[float],
     nees: list[float],
 ) -> None:
-    """:func:`log_nav_sample` of many samples of one filter at once."""
+    """Estimated headings, their errors against truth with ±3σ bounds, NEES: many samples.
+
+    The recording's ``/nav/**`` series of one filter, declared here only.
+    """
     rec.log_scalar_rows(f"/nav/heading_deg/{name}", t, [[x] for x in heading], names=[name])
     rec.log_scalar_rows(
         f"/nav/{name}/heading_error_deg",

@@ -41,8 +41,8 @@ class RunScorer:
 
     @property
     def last_samples(self) -> dict[str, dict[str, float]]:
-        """Each variant's last truth sample: its estimate and errors (for the recorder)."""
-        return {name: v.last_sample() for name, v in self.variants.items() if v._last is not None}
+        """Each variant's last truth sample, scored on its own: its estimate and errors."""
+        return {name: s for name, v in self.variants.items() if (s := v.last_sample())}
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         counts = self.mission.readings
