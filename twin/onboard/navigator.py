@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -213,6 +213,36 @@ class Navigator:
             self._next_compass_t = reading.t + 1.0 / self.config.compass_rate_hz
             return self._compass(reading)
         return None
+
+    @staticmethod
+    def fan_out_imu(navigators: Iterable[Navigator], reading: Reading) -> bool:
+        """Give one IMU reading to every navigator's batch at once, when none must act on it.
+
+        The common step of a run (issue #31): every variant only keeps the sample for its next
+        batch. That is :meth:`_on_imu`'s own path for a batchable sample that is after each
+        INS's time and before each gravity update, taken with one :func:`batchable` check and
+        no per-variant dispatch: the same batches, the same state, bit for bit. Returns False,
+        having done nothing, when any variant must do more (each then takes the reading
+        through :meth:`on_reading`).
+        """
+        navs = tuple(navigators)
+        t = reading.t
+        for nav in navs:
+            if (
+                nav._batch is None
+                or reading.sensor != nav.knowledge.imu
+                or t <= nav._t_imu
+                or (nav.config.gravity_aiding and t >= nav._next_gravity_t - 1e-9)
+            ):
+                return False
+        if not batchable(reading):
+            return False
+        rate = reading.values["angular_rate"]
+        for nav in navs:
+            nav._batch.add(reading)  # type: ignore[union-attr]  (checked above)
+            nav._t_imu = t
+            nav._rate_b = rate
+        return True
 
     def _on_imu(self, reading: Reading) -> None:
         """An IMU sample: kept for the next batch (imu_batch), or integrated now when it must be.

@@ -84,6 +84,10 @@ class Simulation:
 
         Returns the frames the variants' compass methods processed, as (variant, event).
         """
+        # Most steps deliver the IMU's sample alone, which every variant only keeps for its next
+        # batch: handed to all at once (Navigator.fan_out_imu), the same state bit for bit.
+        if len(readings) == 1 and Navigator.fan_out_imu(self.navigators.values(), readings[0]):
+            return []
         events = []
         for name, nav in self.navigators.items():
             for r in readings:
