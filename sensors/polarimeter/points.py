@@ -93,19 +93,32 @@ class PointScatterers:
             off = draw.offsets_m
             intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)
         dirs = (draw.offsets_m / r[:, None]) @ c_cn  # ENU → camera frame (rows: c_cnᵀ d)
-        u, v, ok = self.camera.project_outside(dirs, self.n_water)
-        h, w = self.camera.shape
+        cam = self.camera
+        # Only the points within the lens's field are projected (about half of them): one more
+        # than θ_max off the axis in the water is more than that behind the port too (a flat
+        # port bends a ray from water into air away from the axis), so it misses every pixel.
+        lim = cam.theta_max + 0.01
+        if lim < math.pi:
+            near = np.flatnonzero(dirs[:, 2] > math.cos(lim))
+            dirs = dirs[near]
+        else:
+            near = np.arange(dirs.shape[0])
+        u, v, ok = cam.project_outside(dirs, self.n_water)
+        h, w = cam.shape
         col = np.rint(np.asarray(u)).astype(np.int64)
         row = np.rint(np.asarray(v)).astype(np.int64)
-        ok = np.asarray(ok) & (col >= 0) & (col < w) & (row >= 0) & (row < h) & (intensity > 0)
-        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
-        ok = ~occluded[row, col]
-        col, row, intensity, r = col[ok], row[ok], intensity[ok], r[ok]
-        omega = self._outside_solid_angle()[row, col]
-        add = intensity / (r * r * omega) * self._photon_scale
+        ok = np.asarray(ok) & (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        ok &= intensity[near] > 0
+        sel = near[ok]
+        pix = row[ok] * w + col[ok]  # flat pixel indices: one gather each below
+        shown = ~occluded.reshape(-1)[pix]
+        sel, pix = sel[shown], pix[shown]
+        omega = self._outside_solid_angle().reshape(-1)[pix]
+        r = r[sel]
+        add = intensity[sel] / (r * r * omega) * self._photon_scale
         flat = st[..., 0].reshape(-1)
-        np.add.at(flat, row * w + col, add.astype(np.float32))
-        return int(col.size)
+        np.add.at(flat, pix, add.astype(np.float32))
+        return int(sel.size)
 
     def _outside_solid_angle(self) -> NDArray[np.float64]:
         """(H, W) each pixel's solid angle in the water, outside the housing.

@@ -64,6 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core import options
+from twin.core.arrays import row_norms
 
 BubbleModel = Literal["hall_novarini", "ideal"]
 BUBBLE_MODELS = options.BUBBLE_MODELS  # declared in twin.core.options (the scenario offers it)
@@ -187,7 +188,7 @@ class BubblePopulation:
         )
         r_ball = self.reach_m * a / A_MAX_M
         v = rng.standard_normal((count, 3))
-        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        v /= row_norms(v)[:, None]
         r = r_ball * rng.random(count) ** (1.0 / 3.0)
         off = v * r[:, None]
         z = depth_m - off[:, 2]  # ENU up is +z: a bubble above the camera is shallower
@@ -224,7 +225,7 @@ def bubble_radiance(
     Returns:
         (I e^(−c r) per bubble, in the irradiance's units per sr; r in m).
     """
-    r = np.linalg.norm(draw.offsets_m, axis=1)
+    r = row_norms(draw.offsets_m)
     if r.size == 0 or e_sun_normal <= 0.0:
         return np.zeros(r.size), r
     s = np.asarray(sun_look, dtype=np.float64).reshape(3)

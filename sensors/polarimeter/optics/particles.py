@@ -41,6 +41,7 @@ import numpy as np
 
 from sensors.polarimeter.optics.bubbles import BubbleDraw
 from twin.core import options
+from twin.core.arrays import row_norms
 from twin.core.fields import Range, check_ranges
 
 ParticleModel = Literal["marine_snow", "ideal"]
@@ -127,7 +128,7 @@ class MarineSnow:
             a = (a_lo**p + u * (a_hi**p - a_lo**p)) ** (1.0 / p)
         r_ball = self.reach_m * a / a_hi
         v = rng.standard_normal((count, 3))
-        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        v /= row_norms(v)[:, None]
         r = r_ball * rng.random(count) ** (1.0 / 3.0)
         off = v * r[:, None]
         z = depth_m - off[:, 2]
