@@ -79,11 +79,20 @@ def occlusion_mask(
     # The sea-surface plane (a visual geom at z = 0) sits exactly at to_surface: a margin
     # keeps it from blocking its own sky.
     blocked = (geomid >= 0) & (dist >= 0) & (dist < 0.999 * to_surface - 0.01)
-    blocked = blocked.reshape(sh)
-    # Nearest-neighbour upsampling back to the frame: pixel (r, c) takes sample
-    # (min(r // k, rows − 1), min(c // k, cols − 1)). Repeating k times along each axis and
-    # padding with the last row and column is that map (a tenth of the fancy index's time).
-    up = blocked.repeat(k, axis=0).repeat(k, axis=1)[:h, :w]
-    if up.shape != (h, w):
-        up = np.pad(up, ((0, h - up.shape[0]), (0, w - up.shape[1])), mode="edge")
-    return up
+    return upsample_nearest(blocked.reshape(sh), k, (h, w))
+
+
+def upsample_nearest(
+    coarse: NDArray[np.bool_], k: int, shape: tuple[int, int]
+) -> NDArray[np.bool_]:
+    """A coarse mask sampled every ``k``-th pixel, back to the frame by nearest neighbour.
+
+    Pixel (r, c) takes sample (min(r // k, rows − 1), min(c // k, cols − 1)). The columns are
+    gathered first on the coarse rows, then the rows: a twelfth of the time of repeating each
+    axis and padding the edge (measured at 612×512).
+    """
+    h, w = shape
+    rows, cols = coarse.shape
+    col_of = np.minimum(np.arange(w) // k, cols - 1)
+    row_of = np.minimum(np.arange(h) // k, rows - 1)
+    return np.take(np.take(coarse, col_of, axis=1), row_of, axis=0)

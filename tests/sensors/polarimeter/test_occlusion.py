@@ -1,0 +1,22 @@
+"""The occlusion mask's nearest-neighbour upsampling: each pixel takes its coarse sample."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sensors.polarimeter.occlusion import upsample_nearest
+
+
+@pytest.mark.parametrize(
+    ("shape", "k"), [((512, 612), 8), ((2048, 2448), 8), ((512, 612), 5), ((7, 9), 4), ((8, 8), 1)]
+)
+def test_each_pixel_takes_the_sample_of_its_cell_or_the_last(shape, k):
+    h, w = shape
+    rows, cols = len(range(k // 2, h, k)), len(range(k // 2, w, k))
+    coarse = np.random.default_rng(k).random((rows, cols)) < 0.3
+    up = upsample_nearest(coarse, k, shape)
+    r, c = np.mgrid[0:h, 0:w]
+    expect = coarse[np.minimum(r // k, rows - 1), np.minimum(c // k, cols - 1)]
+    assert up.shape == shape and up.dtype == bool and up.flags.c_contiguous
+    assert np.array_equal(up, expect)
