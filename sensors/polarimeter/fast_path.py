@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from sensors.polarimeter import chain_kernel
 from sensors.polarimeter.fine_grid import FineGrid, bilinear_into
+from sensors.polarimeter.occlusion import upsample_nearest
 from sensors.polarimeter.optics import transmission as transmission_mod
 from sensors.polarimeter.optics import water as water_mod
 from sensors.polarimeter.optics.sky import sky_radiance
@@ -199,6 +200,19 @@ class _FastPlan:
         """Flat indices of the valid pixels of the given cells."""
         idx = self._cell_pixels[cells].reshape(-1)
         return idx[idx >= 0].astype(np.intp)
+
+    def nearest(self, coarse: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """``cv2.resize``'s nearest neighbour of a (H/s, W/s) grid to the frame.
+
+        When the stride divides the frame, pixel (r, c) takes point (r // s, c // s), as OpenCV's
+        nearest (⌊x · 1/s⌋, exact for these scales) does: two gathers (occlusion's
+        :func:`upsample_nearest`), a fifth of the resize's time (measured at 612×512).
+        """
+        h, w = self._shape
+        s = self.stride
+        if h % s == 0 and w % s == 0:
+            return upsample_nearest(coarse, s, (h, w))
+        return cv2.resize(coarse, (w, h), interpolation=cv2.INTER_NEAREST)
 
     def gather_rays(self, idx: NDArray[np.intp]) -> FloatArray:
         """(N, 3) the rays of the given pixels (a view of planar storage)."""
@@ -440,8 +454,13 @@ class FastPath:
         # --- the coarse frame, upsampled over the image circle's bounding box -------------------
         coarse = np.zeros((hc * wc, 3), dtype=np.float32)
         coarse[points] = tot_c
-        st = np.zeros((h, w, 3), dtype=np.float32)
+        # The resize fills the image circle's box: only the frame around it is zeroed.
+        st = np.empty((h, w, 3), dtype=np.float32)
         b0, b1, a0, a1 = plan.roi
+        st[: b0 * s] = 0.0
+        st[b1 * s :] = 0.0
+        st[b0 * s : b1 * s, : a0 * s] = 0.0
+        st[b0 * s : b1 * s, a1 * s :] = 0.0
         roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
         cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
         cv2.copyTo(plan.zeros, plan.invalid, roi)
@@ -460,8 +479,7 @@ class FastPath:
         # --- Snell's window (the sky above the horizon, in air) ---------------------------------
         win_c = np.zeros(hc * wc, dtype=np.uint8)
         win_c[points] = sees_c
-        window = cv2.resize(win_c.reshape(hc, wc), (w, h), interpolation=cv2.INTER_NEAREST)
-        window = window.view(bool)
+        window = plan.nearest(win_c.reshape(hc, wc)).view(bool)
         win_flat = window.reshape(-1)
         win_flat[idx] = sees_r
         # --- the fine level: the other rough cells, from the fine grid ---------------------------

@@ -7,6 +7,8 @@ keeps only the scattered light (:class:`sensors.polarimeter.render.Polarimeter`)
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +16,8 @@ from numpy.typing import NDArray
 from sensors.base import WorldView
 from sensors.polarimeter.spec import PolarimeterSpec
 from twin.core.arrays import FloatArray
+
+ScalarT = TypeVar("ScalarT", bound=np.generic)
 
 DOME_CLEARANCE_M = 0.025  # models/auv/auv.xml: dome r = 3 cm centred 1.5 cm below the site
 
@@ -82,10 +86,8 @@ def occlusion_mask(
     return upsample_nearest(blocked.reshape(sh), k, (h, w))
 
 
-def upsample_nearest(
-    coarse: NDArray[np.bool_], k: int, shape: tuple[int, int]
-) -> NDArray[np.bool_]:
-    """A coarse mask sampled every ``k``-th pixel, back to the frame by nearest neighbour.
+def upsample_nearest(coarse: NDArray[ScalarT], k: int, shape: tuple[int, int]) -> NDArray[ScalarT]:
+    """A coarse grid sampled every ``k``-th pixel, back to the frame by nearest neighbour.
 
     Pixel (r, c) takes sample (min(r // k, rows − 1), min(c // k, cols − 1)). The columns are
     gathered first on the coarse rows, then the rows: a twelfth of the time of repeating each
