@@ -97,3 +97,33 @@ def test_lig_moments_equal_the_numpy_chain(housing, sphere, grad_weight):
     np.testing.assert_allclose(mat, (normals * w[:, None]).T @ normals, rtol=0, atol=1e-12 * wsum)
     assert wsum == pytest.approx(w.sum(), rel=1e-12)
     _same_solution(mat, wsum, count, normals, w if grad_weight else None)
+
+
+@pytest.mark.parametrize("housing", ["dome", "flat"])
+def test_the_window_masks_are_numpys_but_within_rounding_of_the_threshold(housing):
+    """``kernels.window_and_core`` against ``rays @ up > cos``: the same pixels, over many
+    attitudes, except one whose cosine lies within 1e-15 of a threshold (none here)."""
+    cam = sensors.create("polarimeter", "ideal_bin4", housing=housing)
+    cal = cam.true_calibration()
+    geo = analysis_geometry(cal, 2, N_W if housing == "flat" else 1.0)
+    rng = np.random.default_rng(3)
+    edge = math.cos(critical_angle(N_W))
+    core_c = math.cos(critical_angle(N_W) - math.radians(3.0))
+    near = 0
+    for _ in range(200):
+        roll, pitch, yaw = rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2), rng.uniform(-3, 3)
+        up = (euler_to_dcm(roll, pitch, yaw) @ cal.c_c_b)[2]
+        cos_r = geo.rays @ up
+        win, core = kernels.window_and_core(geo.rays, geo.valid, up, edge, core_c)
+        for got, thr in ((win, edge), (core, core_c)):
+            ref = geo.valid & (cos_r > thr)
+            differ = got != ref
+            assert np.all(np.abs(cos_r[differ] - thr) < 1e-15)
+            near += int(differ.sum())
+        assert win.sum() > 0 or not (geo.valid & (cos_r > edge)).any()
+    assert near == 0
+    # It reads the mask: an invalid pixel is never in the window.
+    invalid = ~geo.valid
+    up = cal.c_c_b[2]
+    win, core = kernels.window_and_core(geo.rays, geo.valid, up, -2.0, -2.0)
+    assert not win[invalid].any() and np.array_equal(win, geo.valid) and np.array_equal(core, win)

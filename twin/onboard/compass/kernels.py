@@ -66,6 +66,45 @@ def _symmetrize(mat):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def window_masks(rays, valid, up, cos_edge, cos_core, in_window, core):  # type: ignore[no-untyped-def]
+    """Snell's window (eqs. 6–7) and its core, in one pass over the analysis pixels.
+
+    A valid pixel is in the window when its ray's level-frame elevation cosine l^h(3) = ray · up
+    (``up`` = row 3 of C_c^h) exceeds ``cos_edge``, in the core when it exceeds ``cos_core``.
+    ``rays`` (N, 3), ``valid``, ``in_window``, ``core`` (N,). The cosine is
+    (x·u₀ + y·u₁) + z·u₂ in double precision: numpy's ``rays @ up`` (BLAS) may round its last bit
+    differently, so a pixel within ~1e-16 of a threshold may fall on the other side
+    (``tests/onboard/compass/test_compass_kernels.py`` bounds it).
+    """
+    u0 = up[0]
+    u1 = up[1]
+    u2 = up[2]
+    for i in range(valid.shape[0]):
+        c = rays[i, 0] * u0 + rays[i, 1] * u1 + rays[i, 2] * u2
+        v = valid[i]
+        in_window[i] = v and c > cos_edge
+        core[i] = v and c > cos_core
+
+
+def window_and_core(
+    rays: np.ndarray, valid: np.ndarray, up: np.ndarray, cos_edge: float, cos_core: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`window_masks` for (H, W, 3) rays and an (H, W) valid mask: two (H, W) masks."""
+    in_window = np.empty(valid.shape, dtype=np.bool_)
+    core = np.empty(valid.shape, dtype=np.bool_)
+    window_masks(
+        np.ascontiguousarray(rays).reshape(-1, 3),
+        np.ascontiguousarray(valid).reshape(-1),
+        np.ascontiguousarray(up, dtype=np.float64),
+        float(cos_edge),
+        float(cos_core),
+        in_window.reshape(-1),
+        core.reshape(-1),
+    )
+    return in_window, core
+
+
+@njit(cache=True)
 def pol_moments(idx, aop, dop, rays, r_s, t_s, lens_rays, c, n_w, fresnel, flat, dop_weight):  # type: ignore[no-untyped-def]
     """Σ w e eᵀ (3×3) and Σ w of POL's air-side E-vectors (``PolCompass.solve_frame``, step 3).
 

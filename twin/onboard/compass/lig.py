@@ -195,10 +195,15 @@ class LigCompass(CompassMethod):
 
         # Eqs. 6–7: in-window pixels from the attitude hint.
         c_c_h = level_rotation(calibration, ctx)
-        cos_r = geo.rays @ c_c_h[2]  # l^h(3) per pixel
         theta_c = critical_angle(n_w)
-        in_window = geo.valid & (cos_r > math.cos(theta_c))
-        core = geo.valid & (cos_r > math.cos(max(theta_c - cfg.window_margin_rad, 0.0)))
+        # l^h(3) per pixel against the window's edge and its core (one compiled pass).
+        in_window, core = kernels.window_and_core(
+            geo.rays,
+            geo.valid,
+            c_c_h[2],
+            math.cos(theta_c),
+            math.cos(max(theta_c - cfg.window_margin_rad, 0.0)),
+        )
         n_window = int(in_window.sum())
         if n_window < cfg.min_pixels:
             return no_fix(self.name, "Snell's window is (almost) out of view", n_window)

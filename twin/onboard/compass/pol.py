@@ -179,10 +179,15 @@ class PolCompass(CompassMethod):
         sat = block_saturation(raw, calibration, geo)
 
         c_c_h = level_rotation(calibration, ctx)
-        cos_r = geo.rays @ c_c_h[2]
         theta_c = critical_angle(n_w)
-        in_window = geo.valid & (cos_r > math.cos(theta_c))
-        core = geo.valid & (cos_r > math.cos(max(theta_c - cfg.window_margin_rad, 0.0)))
+        # l^h(3) per pixel against the window's edge and its core (one compiled pass).
+        in_window, core = kernels.window_and_core(
+            geo.rays,
+            geo.valid,
+            c_c_h[2],
+            math.cos(theta_c),
+            math.cos(max(theta_c - cfg.window_margin_rad, 0.0)),
+        )
         win_idx = np.flatnonzero(in_window)
         n_window = int(win_idx.size)
         if n_window < cfg.min_pixels:
