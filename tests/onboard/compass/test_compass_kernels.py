@@ -19,6 +19,8 @@ from twin.onboard.compass import kernels
 from twin.onboard.compass.analysis_grid import (
     analysis_geometry,
     eigen_from_moments,
+    resolve_by_intensity,
+    resolve_by_intensity_at,
     smallest_eigenvector,
 )
 from twin.onboard.compass.geometry import critical_angle
@@ -127,3 +129,27 @@ def test_the_window_masks_are_numpys_but_within_rounding_of_the_threshold(housin
     up = cal.c_c_b[2]
     win, core = kernels.window_and_core(geo.rays, geo.valid, up, -2.0, -2.0)
     assert not win[invalid].any() and np.array_equal(win, geo.valid) and np.array_equal(core, win)
+
+
+def test_the_sun_side_halves_are_the_level_frame_directions_but_at_the_dividing_plane():
+    """``resolve_by_intensity_at`` (compiled sides) against ``resolve_by_intensity`` (p^h)."""
+    cal, geo, _, _, rng = _setup("dome", 4)
+    edge = math.cos(critical_angle(N_W))
+    for _ in range(100):
+        c_c_h = euler_to_dcm(*rng.uniform(-0.6, 0.6, 2), rng.uniform(-3, 3)) @ cal.c_c_b
+        idx = np.flatnonzero(geo.valid & (geo.rays @ c_c_h[2] > edge))
+        p_h = geo.rays.reshape(-1, 3)[idx] @ c_c_h.T
+        s = rng.normal(size=3)
+        s /= np.linalg.norm(s)
+        intensity = rng.uniform(10.0, 20.0, idx.size) + 3.0 * (p_h[:, :2] @ s[:2])
+        side = np.empty(idx.size, dtype=bool)
+        kernels.window_sides(geo.rays.reshape(-1, 3), idx, c_c_h, s[0], s[1], side)
+        ref = p_h[:, :2] @ s[:2] > 0
+        assert np.all(np.abs((p_h[:, :2] @ s[:2])[side != ref]) < 1e-15)
+        for min_contrast in (0.0, 0.05, 0.9):
+            got = resolve_by_intensity_at(s, geo.rays, idx, c_c_h, intensity, min_contrast)
+            want = resolve_by_intensity(s, p_h, intensity, min_contrast)
+            assert np.array_equal(got[0], want[0]) and got[1:] == want[1:]
+    # The zenith: nothing to compare, the upper hemisphere's sign.
+    z = np.array([0.0, 0.0, -1.0])
+    assert resolve_by_intensity_at(z, geo.rays, idx, c_c_h, intensity, 0.0)[1:] == (0.0, False)

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from twin.core.arrays import Float64Array as FloatArray
 from twin.core.calibration import CameraCalibration
+from twin.onboard.compass import kernels
 from twin.onboard.compass.base import (
     CompassContext,
     Frame,
@@ -203,7 +204,41 @@ def resolve_by_intensity(
     sp = s_h[:2]
     if math.hypot(sp[0], sp[1]) < 1e-9:  # sun at the zenith: nothing to compare
         return (s_h if s_h[2] >= 0 else -s_h), 0.0, False
-    side = p_h[:, :2] @ sp > 0
+    return _resolve(s_h, p_h[:, :2] @ sp > 0, intensity, min_contrast)
+
+
+def resolve_by_intensity_at(
+    s_h: FloatArray,
+    rays: FloatArray,
+    idx: NDArray[np.intp],
+    c_c_h: FloatArray,
+    intensity: FloatArray,
+    min_contrast: float,
+) -> tuple[FloatArray, float, bool]:
+    """:func:`resolve_by_intensity` with the look directions the analysis rays at ``idx``.
+
+    The side of each ray from one compiled pass (``kernels.window_sides``), without the (N, 3)
+    level-frame directions: the same halves but for a ray within ~1e-16 of the dividing plane.
+    """
+    sp = s_h[:2]
+    if math.hypot(sp[0], sp[1]) < 1e-9:
+        return (s_h if s_h[2] >= 0 else -s_h), 0.0, False
+    side = np.empty(idx.size, dtype=np.bool_)
+    kernels.window_sides(
+        np.ascontiguousarray(rays).reshape(-1, 3),
+        np.ascontiguousarray(idx, dtype=np.intp),
+        np.ascontiguousarray(c_c_h, dtype=np.float64),
+        float(sp[0]),
+        float(sp[1]),
+        side,
+    )
+    return _resolve(s_h, side, intensity, min_contrast)
+
+
+def _resolve(
+    s_h: FloatArray, side: NDArray[np.bool_], intensity: FloatArray, min_contrast: float
+) -> tuple[FloatArray, float, bool]:
+    """The rule given which in-window pixels lie on the side s_p points at."""
     n_pos, n_neg = int(side.sum()), int((~side).sum())
     if n_pos == 0 or n_neg == 0:
         return (s_h if s_h[2] >= 0 else -s_h), 0.0, False

@@ -105,6 +105,27 @@ def window_and_core(
 
 
 @njit(cache=True)
+def window_sides(rays, idx, c, sp0, sp1, side):  # type: ignore[no-untyped-def]
+    """side[i]: the level-frame direction of ray ``idx[i]`` lies on the side s_p points at.
+
+    p^h = C_c^h · ray; the side is (p^h_1 s_1 + p^h_2 s_2) > 0, the sun/anti-sun rule's halves
+    (``analysis_grid.resolve_by_intensity``), in double precision without the (N, 3) p^h.
+    """
+    c00 = c[0, 0]
+    c01 = c[0, 1]
+    c02 = c[0, 2]
+    c10 = c[1, 0]
+    c11 = c[1, 1]
+    c12 = c[1, 2]
+    for i in range(idx.shape[0]):
+        j = idx[i]
+        x = rays[j, 0]
+        y = rays[j, 1]
+        z = rays[j, 2]
+        side[i] = (x * c00 + y * c01 + z * c02) * sp0 + (x * c10 + y * c11 + z * c12) * sp1 > 0.0
+
+
+@njit(cache=True)
 def pol_moments(idx, aop, dop, rays, r_s, t_s, lens_rays, c, n_w, fresnel, flat, dop_weight):  # type: ignore[no-untyped-def]
     """Σ w e eᵀ (3×3) and Σ w of POL's air-side E-vectors (``PolCompass.solve_frame``, step 3).
 

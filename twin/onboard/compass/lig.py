@@ -76,7 +76,7 @@ from twin.onboard.compass.analysis_grid import (
     eigen_from_moments,
     frame_prologue,
     level_rotation,
-    resolve_by_intensity,
+    resolve_by_intensity_at,
     smallest_eigenvector,
 )
 from twin.onboard.compass.base import (
@@ -277,9 +277,11 @@ class LigCompass(CompassMethod):
                 eigen_gap=sol.eigen_gap,
             )
         win_idx = np.flatnonzero(in_window)
-        s_h, contrast, by_intensity = resolve_by_intensity(
+        s_h, contrast, by_intensity = resolve_by_intensity_at(
             sol.s,
-            geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T,
+            geo.rays,
+            win_idx,
+            c_c_h,
             filt.reshape(-1)[win_idx],
             cfg.ambiguity_min_contrast,
         )

@@ -57,7 +57,7 @@ from twin.onboard.compass.analysis_grid import (
     eigen_from_moments,
     frame_prologue,
     level_rotation,
-    resolve_by_intensity,
+    resolve_by_intensity_at,
     smallest_eigenvector,
 )
 from twin.onboard.compass.base import (
@@ -234,9 +234,7 @@ class PolCompass(CompassMethod):
                 eigen_gap=sol.eigen_gap,
             )
         s_h = sol.s if sol.s[2] >= 0 else -sol.s  # daytime: the sun is above the horizon
-        _, contrast, _ = resolve_by_intensity(
-            s_h, geo.rays.reshape(-1, 3)[win_idx] @ c_c_h.T, pw.s0, 0.0
-        )
+        _, contrast, _ = resolve_by_intensity_at(s_h, geo.rays, win_idx, c_c_h, pw.s0, 0.0)
         c_b_h = ctx.c_b_h
         cov_b = c_b_h.T @ sol.covariance(1.0, cfg.sigma_floor_rad) @ c_b_h
         return finish_fix(
