@@ -216,22 +216,30 @@ class LigCompass(CompassMethod):
                 mean_intensity_dn=mean_i,
             )
 
-        # Median filter, then the image gradient (the LIG vectors, §2).
-        filt = cv2.medianBlur(intensity, cfg.median_ksize) if cfg.median_ksize > 1 else intensity
-        gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
-        gy = cv2.Sobel(filt, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+        # Median filter, then the image gradient (the LIG vectors, §2), on the window's box: the
+        # in-window pixels' rows and columns widened by the filters' support (a quarter of the
+        # image at 10 m). Every value the method reads is the whole image's: the median at the
+        # window's pixels (an order statistic of the same neighbours) and the gradient at the
+        # core's (_filtered_box).
+        k = max(cfg.median_ksize, 1)
+        box, filt_b, gx_b, gy_b = _filtered_box(intensity, in_window, cfg.median_ksize)
+        inten_b = intensity[box]
         # Noise: MAD of the median filter's residual in the window; the Sobel (scale 1/8) of a
         # k×k median has a per-component std ≈ σ · √(12)/8 · √(π/2)/k (median of k² ≈ 1.25σ/k).
-        k = max(cfg.median_ksize, 1)
-        resid = (intensity - filt)[core]
+        core_b = core[box]
+        resid = (inten_b - filt_b)[core_b]
         sigma = _MAD_TO_SIGMA * float(np.median(np.abs(resid - np.median(resid))))
         sigma_g = sigma * math.sqrt(12.0) / 8.0 * math.sqrt(math.pi / 2.0) / k
-        gmag2 = gx * gx + gy * gy
+        gmag2 = gx_b * gx_b + gy_b * gy_b
         radius = k // 2 + 1  # median + Sobel support
         bad = dilate(~geo.valid, radius)
         if cfg.exclude_saturated:
             bad = bad | dilate(sat, radius)
-        use = core & ~bad & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
+        use = np.zeros(core.shape, dtype=bool)
+        use[box] = (
+            core_b & ~bad[box] & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
+        )
+        filt, gx, gy = (_whole(a, box, core.shape) for a in (filt_b, gx_b, gy_b))
         idx = np.flatnonzero(use)
         if idx.size < cfg.min_pixels:
             return no_fix(
@@ -308,6 +316,40 @@ class LigCompass(CompassMethod):
             gradient_noise_dn=sigma_g,
             mean_intensity_dn=mean_i,
         )
+
+
+def _window_box(in_window: NDArray[np.bool_], pad: int) -> tuple[slice, slice]:
+    """The rows and columns of the in-window pixels, ``pad`` wider each way (within the image)."""
+    h, w = in_window.shape
+    rows = np.flatnonzero(in_window.any(axis=1))
+    cols = np.flatnonzero(in_window.any(axis=0))
+    return (
+        slice(max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)),
+        slice(max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)),
+    )
+
+
+def _filtered_box(
+    intensity: NDArray[np.float32], in_window: NDArray[np.bool_], ksize: int
+) -> tuple[tuple[slice, slice], NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]:
+    """The window's box; its median-filtered intensity and the Sobel gradients (gx, gy) of that.
+
+    The median is the whole image's at every in-window pixel, the gradient at every in-window
+    pixel whose 3×3 neighbours are in the window (``tests/onboard/compass/test_lig_box.py``).
+    """
+    box = _window_box(in_window, max(ksize, 1) // 2 + 2)
+    part = intensity[box]
+    filt = cv2.medianBlur(part, ksize) if ksize > 1 else part
+    gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+    gy = cv2.Sobel(filt, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    return box, filt, gx, gy
+
+
+def _whole(part: NDArray[np.float32], box: tuple[slice, slice], shape: tuple[int, int]):
+    """A box's values in a whole-image array, zero outside it."""
+    out = np.zeros(shape, dtype=part.dtype)
+    out[box] = part
+    return out
 
 
 def _paper_normals(

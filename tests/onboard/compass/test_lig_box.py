@@ -1,0 +1,89 @@
+"""LIG filters its window's box, not the whole image: the same fixes (issue #31).
+
+``LigCompass`` median-filters and differentiates only the rows and columns of Snell's window,
+widened by the filters' support (``lig._window_box``). The reference below filters the whole image
+(the box is the image); every fix's numbers must be the same, for the twin's and the paper's
+mappings, a noisy camera, the window in the middle and against the image's edge.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+import sensors
+from sensors.polarimeter.render import OpticsConfig
+from twin.core.frames import euler_to_dcm
+from twin.onboard.compass import create, lig
+from twin.onboard.compass.base import CompassContext
+
+UTC = dt.datetime(2021, 7, 31, 4, 0, tzinfo=dt.UTC)
+SUN = np.array([0.5, 0.3, 0.81])
+
+
+def _frame(cam, depth, roll, pitch, seed):
+    c_b_n = euler_to_dcm(math.radians(roll), math.radians(pitch), 0.4)
+    raw, _ = cam.render_offline(
+        c_b_n, depth, SUN / np.linalg.norm(SUN), np.random.default_rng(seed)
+    )
+    ctx = CompassContext(
+        UTC, 36.2, 120.5, roll_rad=math.radians(roll), pitch_rad=math.radians(pitch),
+        depth_m=depth, water_index=cam.n_water, sun_enu=SUN / np.linalg.norm(SUN),
+    )  # fmt: skip
+    return raw, cam.calibration(), ctx
+
+
+def _numbers(fix):
+    d = dataclasses.asdict(fix)
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
+
+
+@pytest.mark.parametrize("params", [{}, {"mapping": "paper", "weighting": "gradient"}])
+def test_the_box_gives_the_whole_images_fixes(monkeypatch, params):
+    cam = sensors.create("polarimeter", "phx050s_p_bin4")
+    cam.configure(OpticsConfig(jerlov_type="II"))
+    method = create("lig", **params)
+    scenes = [
+        (10.0, 0.0, 0.0, 1),
+        (3.0, 25.0, -10.0, 2),
+        (1.0, 60.0, 5.0, 3),
+        (15.0, -5.0, 40.0, 4),
+    ]
+    frames = [_frame(cam, *s) for s in scenes]
+    boxed = [method.solve(*f) for f in frames]
+    whole = lambda in_window, pad: (slice(None), slice(None))  # noqa: E731
+    monkeypatch.setattr(lig, "_window_box", whole)
+    for s, f, got in zip(scenes, frames, boxed, strict=True):
+        ref = method.solve(*f)
+        assert ref.ok, ref.reason
+        assert _numbers(got) == _numbers(ref), s
+
+
+def test_the_box_holds_the_window_and_the_filters_support():
+    win = np.zeros((40, 50), dtype=bool)
+    win[10:20, 30:49] = True
+    rows, cols = lig._window_box(win, 4)
+    assert (rows.start, rows.stop, cols.start, cols.stop) == (6, 24, 26, 50)
+
+
+@pytest.mark.parametrize("ksize", [1, 3, 5])
+@pytest.mark.parametrize("centre", [(128, 150), (20, 30), (250, 300)])
+def test_the_filtered_box_is_the_whole_images_where_the_method_reads_it(ksize, centre):
+    """Noise (every neighbour matters): the median at each in-window pixel, the gradient at each
+    whose 3×3 neighbours are in the window, equal the whole image's; at the image's edge too."""
+    rng = np.random.default_rng(ksize)
+    intensity = rng.uniform(0.0, 100.0, (256, 306)).astype(np.float32)
+    r, c = np.mgrid[0:256, 0:306]
+    win = (r - centre[0]) ** 2 + (c - centre[1]) ** 2 < 50**2
+    box, filt_b, gx_b, gy_b = lig._filtered_box(intensity, win, ksize)
+    filt = cv2.medianBlur(intensity, ksize) if ksize > 1 else intensity
+    gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+    gy = cv2.Sobel(filt, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    inner = cv2.erode(win.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+    for part, whole, mask in ((filt_b, filt, win), (gx_b, gx, inner), (gy_b, gy, inner)):
+        assert np.array_equal(part[mask[box]], whole[mask])
