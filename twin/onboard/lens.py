@@ -111,13 +111,30 @@ def compensate_at(
     ``idx``, after the lens is undone. A method that uses the pixels of Snell's window only
     pays for those (a quarter of the image circle at 10 m).
     """
-    s0, s1, s2, sat = (x.reshape(-1)[idx] for x in (img.s0, img.s1, img.s2, img.saturated))
+    planes = StokesPlanes(*(x.reshape(-1)[idx] for x in (img.s0, img.s1, img.s2, img.saturated)))
+    return compensate_gathered(planes, calibration, img.shape, idx, kind, origin, block)
+
+
+def compensate_gathered(
+    planes: StokesPlanes,
+    calibration: CameraCalibration,
+    shape: tuple[int, int],
+    idx: NDArray[np.integer],
+    kind: str,
+    origin: tuple[int, int] = (0, 0),
+    block: int = 2,
+) -> PolarizationImage:
+    """:func:`compensate_at` for Stokes already taken at the flat indices ``idx`` of a grid.
+
+    ``planes`` holds 1-D S0–S2 and the saturation mask of the pixels ``idx`` (in that order) of a
+    Stokes image of ``shape``: for a method that made its Stokes on part of the grid only.
+    """
+    s0, s1, s2, sat = planes.s0, planes.s1, planes.s2, planes.saturated
     if not calibration.lens_table:
         return PolarizationImage(s0, s1, s2, *aop_dop(s0, s1, s2), sat)
-    inv = _grid_inverse(calibration, img.shape, kind, origin, block)
+    inv = _grid_inverse(calibration, shape, kind, origin, block)
     return apply_inverse(
-        StokesPlanes(s0, s1, s2, sat),
-        LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse))),
+        planes, LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse)))
     )
 
 
@@ -189,6 +206,7 @@ __all__ = [
     "apply_inverse",
     "compensate",
     "compensate_at",
+    "compensate_gathered",
     "compensate_grid",
     "grid_uv",
     "lens_inverse",

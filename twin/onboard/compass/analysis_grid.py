@@ -131,6 +131,27 @@ def block_saturation(
     return cv2.resize(sat, (w, h), interpolation=cv2.INTER_AREA) > 0
 
 
+def window_box(in_window: NDArray[np.bool_], pad: int) -> tuple[slice, slice]:
+    """The rows and columns of the in-window pixels, ``pad`` wider each way (within the grid).
+
+    What POL makes its Stokes on and LIG filters (a quarter of the analysis grid at 10 m).
+    """
+    h, w = in_window.shape
+    rows = np.flatnonzero(in_window.any(axis=1))
+    cols = np.flatnonzero(in_window.any(axis=0))
+    return (
+        slice(max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)),
+        slice(max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)),
+    )
+
+
+def box_indices(idx: NDArray[np.intp], box: tuple[slice, slice], width: int) -> NDArray[np.intp]:
+    """Flat indices ``idx`` of a grid ``width`` wide, as flat indices into its ``box``."""
+    r0, c0 = box[0].start, box[1].start
+    bw = box[1].stop - c0
+    return (idx // width - r0) * bw + (idx % width - c0)
+
+
 def level_rotation(calibration: CameraCalibration, ctx: CompassContext) -> FloatArray:
     """C_c^h = C_b^h · C_c^b: camera → horizontal frame from the roll/pitch hint (eq. 6)."""
     return ctx.c_b_h @ calibration.c_c_b

@@ -78,6 +78,7 @@ from twin.onboard.compass.analysis_grid import (
     level_rotation,
     resolve_by_intensity_at,
     smallest_eigenvector,
+    window_box,
 )
 from twin.onboard.compass.base import (
     CompassFix,
@@ -318,17 +319,6 @@ class LigCompass(CompassMethod):
         )
 
 
-def _window_box(in_window: NDArray[np.bool_], pad: int) -> tuple[slice, slice]:
-    """The rows and columns of the in-window pixels, ``pad`` wider each way (within the image)."""
-    h, w = in_window.shape
-    rows = np.flatnonzero(in_window.any(axis=1))
-    cols = np.flatnonzero(in_window.any(axis=0))
-    return (
-        slice(max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)),
-        slice(max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)),
-    )
-
-
 def _filtered_box(
     intensity: NDArray[np.float32], in_window: NDArray[np.bool_], ksize: int
 ) -> tuple[tuple[slice, slice], NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]:
@@ -337,7 +327,7 @@ def _filtered_box(
     The median is the whole image's at every in-window pixel, the gradient at every in-window
     pixel whose 3×3 neighbours are in the window (``tests/onboard/compass/test_lig_box.py``).
     """
-    box = _window_box(in_window, max(ksize, 1) // 2 + 2)
+    box = window_box(in_window, max(ksize, 1) // 2 + 2)
     part = intensity[box]
     filt = cv2.medianBlur(part, ksize) if ksize > 1 else part
     gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)

@@ -54,11 +54,13 @@ from twin.onboard.compass import kernels
 from twin.onboard.compass.analysis_grid import (
     AnalysisGeometry,
     block_saturation,
+    box_indices,
     eigen_from_moments,
     frame_prologue,
     level_rotation,
     resolve_by_intensity_at,
     smallest_eigenvector,
+    window_box,
 )
 from twin.onboard.compass.base import (
     CompassFix,
@@ -68,7 +70,7 @@ from twin.onboard.compass.base import (
     no_fix,
 )
 from twin.onboard.compass.geometry import critical_angle, meridian_basis, refract_to_air
-from twin.onboard.lens import compensate_at
+from twin.onboard.lens import compensate_at, compensate_gathered
 from twin.onboard.polarization import PolarizationImage, StokesPlanes, stokes_planes_from_mosaic
 
 
@@ -125,19 +127,27 @@ class PolConfig:
 
 
 def binned_stokes(
-    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+    raw: NDArray[np.generic],
+    calibration: CameraCalibration,
+    geo: AnalysisGeometry,
+    box: tuple[slice, slice] | None = None,
 ) -> StokesPlanes:
     """S0–S2 on the analysis grid: bin each analyser phase m/2 × m/2, then the shared inversion.
 
     No angles, and the lens's polarization not undone: :func:`window_stokes` does both at the
-    pixels the method uses.
+    pixels the method uses. ``box`` (rows, columns of the analysis grid): that part only, the
+    whole grid's numbers there (each analysis pixel is its own m × m raw block; tested).
     """
     m = geo.m
     h, w = geo.cal.height_px, geo.cal.width_px
+    r0, r1, c0, c1 = 0, h, 0, w
+    if box is not None:
+        r0, r1, c0, c1 = box[0].start, box[0].stop, box[1].start, box[1].stop
+    h, w = r1 - r0, c1 - c0
     kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
+    r = raw[m * r0 : m * r1, m * c0 : m * c1]
     if m == 2:
-        return stokes_planes_from_mosaic(np.ascontiguousarray(raw[: 2 * h, : 2 * w]), **kwargs)
-    r = raw[: h * m, : w * m]
+        return stokes_planes_from_mosaic(np.ascontiguousarray(r), **kwargs)
     mos = np.empty((2 * h, 2 * w), np.float32)
     for i in range(2):
         for j in range(2):
@@ -151,10 +161,20 @@ def window_stokes(
     calibration: CameraCalibration,
     geo: AnalysisGeometry,
     idx: NDArray[np.integer],
+    box: tuple[slice, slice] | None = None,
 ) -> PolarizationImage:
-    """The analysis grid's Stokes at flat pixels ``idx``, the lens's polarization undone (1-D)."""
+    """The analysis grid's Stokes at flat pixels ``idx``, the lens's polarization undone (1-D).
+
+    ``pol`` is the whole grid's, or its ``box``'s (:func:`binned_stokes`); ``idx`` index the whole
+    grid either way.
+    """
     # Output (i, j) is the mean of raw block (m i … m i + m − 1, m j …): centred at m j + (m − 1)/2.
-    return compensate_at(pol, calibration, idx, "block", block=geo.m)
+    if box is None:
+        return compensate_at(pol, calibration, idx, "block", block=geo.m)
+    shape = (geo.cal.height_px, geo.cal.width_px)
+    at = box_indices(np.asarray(idx, dtype=np.intp), box, shape[1])
+    planes = StokesPlanes(*(x.reshape(-1)[at] for x in (pol.s0, pol.s1, pol.s2, pol.saturated)))
+    return compensate_gathered(planes, calibration, shape, idx, "block", block=geo.m)
 
 
 def fresnel_amplitudes(cos_i: NDArray, cos_r: NDArray, n_w: float) -> tuple[NDArray, NDArray]:
@@ -175,7 +195,6 @@ class PolCompass(CompassMethod):
         calibration, ctx = frame.calibration, frame.ctx
         pro = frame_prologue(frame, cfg.analysis_max_width_px)
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
-        pol = binned_stokes(raw, calibration, geo)
         sat = block_saturation(raw, calibration, geo)
 
         c_c_h = level_rotation(calibration, ctx)
@@ -192,7 +211,11 @@ class PolCompass(CompassMethod):
         n_window = int(win_idx.size)
         if n_window < cfg.min_pixels:
             return no_fix(self.name, "Snell's window is (almost) out of view", n_window)
-        pw = window_stokes(pol, calibration, geo, win_idx)  # 1-D, the window's pixels
+        # Stokes on the window's box only (a quarter of the grid at 10 m); 1-D at its pixels.
+        box = window_box(in_window, 0)
+        pw = window_stokes(
+            binned_stokes(raw, calibration, geo, box), calibration, geo, win_idx, box
+        )
         mean_i = float(pw.s0.mean())
         if not (mean_i >= cfg.min_signal_dn):
             return no_fix(

@@ -1,9 +1,10 @@
-"""LIG filters its window's box, not the whole image: the same fixes (issue #31).
+"""LIG and POL work on Snell's window's box, not the whole image: the same fixes (issue #31).
 
-``LigCompass`` median-filters and differentiates only the rows and columns of Snell's window,
-widened by the filters' support (``lig._window_box``). The reference below filters the whole image
-(the box is the image); every fix's numbers must be the same, for the twin's and the paper's
-mappings, a noisy camera, the window in the middle and against the image's edge.
+``LigCompass`` median-filters and differentiates only the rows and columns of the window, widened
+by the filters' support; ``PolCompass`` makes its Stokes there only
+(``analysis_grid.window_box``). The reference below takes the whole image (the box is the
+image); every fix's numbers must be the same: for LIG's and POL's mappings, a noisy camera, the
+window in the middle and near the image's edge.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import pytest
 import sensors
 from sensors.polarimeter.render import OpticsConfig
 from twin.core.frames import euler_to_dcm
-from twin.onboard.compass import create, lig
+from twin.onboard.compass import analysis_grid, create, lig, pol
 from twin.onboard.compass.base import CompassContext
 
 UTC = dt.datetime(2021, 7, 31, 4, 0, tzinfo=dt.UTC)
@@ -43,11 +44,19 @@ def _numbers(fix):
     return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
 
 
-@pytest.mark.parametrize("params", [{}, {"mapping": "paper", "weighting": "gradient"}])
-def test_the_box_gives_the_whole_images_fixes(monkeypatch, params):
+@pytest.mark.parametrize(
+    ("name", "params"),
+    [
+        ("lig", {}),
+        ("lig", {"mapping": "paper", "weighting": "gradient"}),
+        ("pol", {}),
+        ("pol", {"analysis_max_width_px": 100}),
+    ],
+)
+def test_the_box_gives_the_whole_images_fixes(monkeypatch, name, params):
     cam = sensors.create("polarimeter", "phx050s_p_bin4")
     cam.configure(OpticsConfig(jerlov_type="II"))
-    method = create("lig", **params)
+    method = create(name, **params)
     scenes = [
         (10.0, 0.0, 0.0, 1),
         (3.0, 25.0, -10.0, 2),
@@ -56,8 +65,12 @@ def test_the_box_gives_the_whole_images_fixes(monkeypatch, params):
     ]
     frames = [_frame(cam, *s) for s in scenes]
     boxed = [method.solve(*f) for f in frames]
-    whole = lambda in_window, pad: (slice(None), slice(None))  # noqa: E731
-    monkeypatch.setattr(lig, "_window_box", whole)
+
+    def whole(in_window, pad):
+        return slice(0, in_window.shape[0]), slice(0, in_window.shape[1])
+
+    monkeypatch.setattr(lig, "window_box", whole)
+    monkeypatch.setattr(pol, "window_box", whole)
     for s, f, got in zip(scenes, frames, boxed, strict=True):
         ref = method.solve(*f)
         assert ref.ok, ref.reason
@@ -67,7 +80,7 @@ def test_the_box_gives_the_whole_images_fixes(monkeypatch, params):
 def test_the_box_holds_the_window_and_the_filters_support():
     win = np.zeros((40, 50), dtype=bool)
     win[10:20, 30:49] = True
-    rows, cols = lig._window_box(win, 4)
+    rows, cols = analysis_grid.window_box(win, 4)
     assert (rows.start, rows.stop, cols.start, cols.stop) == (6, 24, 26, 50)
 
 
