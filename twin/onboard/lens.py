@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.core.calibration import CameraCalibration
+from twin.onboard.lens_kernel import undo_at
 from twin.onboard.polarization import PolarizationImage, StokesPlanes, aop_dop
 
 
@@ -133,9 +134,15 @@ def compensate_gathered(
     if not calibration.lens_table:
         return PolarizationImage(s0, s1, s2, *aop_dop(s0, s1, s2), sat)
     inv = _grid_inverse(calibration, shape, kind, origin, block)
-    return apply_inverse(
-        planes, LensInverse(*(getattr(inv, f.name).reshape(-1)[idx] for f in fields(LensInverse)))
-    )
+    n = len(idx)
+    out = np.empty((3, n))
+    # apply_inverse's algebra at idx in one compiled loop (lens_kernel), then its angles.
+    undo_at(
+        np.ascontiguousarray(s0), np.ascontiguousarray(s1), np.ascontiguousarray(s2),
+        np.ascontiguousarray(idx, dtype=np.intp),
+        *(getattr(inv, f.name).reshape(-1) for f in fields(LensInverse)), out[0], out[1], out[2],
+    )  # fmt: skip
+    return _with_angles(out[0], out[1], out[2], sat)
 
 
 def _grid_inverse(
@@ -168,15 +175,21 @@ def apply_inverse(img: PolarizationImage | StokesPlanes, inv: LensInverse) -> Po
     q2 = r2 / inv.tc
     s1 = cos2 * q1 - sin2 * q2
     s2 = sin2 * q1 + cos2 * q2
+    return _with_angles(s0, s1, s2, img.saturated)
+
+
+def _with_angles(
+    s0: NDArray[np.float64], s1: NDArray[np.float64], s2: NDArray[np.float64], sat: NDArray
+) -> PolarizationImage:
+    """The compensated float64 Stokes as a float32 image, with their AoP and DoP."""
     lin = np.hypot(s1, s2)
     dop = np.clip(np.divide(lin, s0, out=np.zeros_like(s0), where=s0 > 0), 0.0, 1.0)
     aop = 0.5 * np.arctan2(s2, s1)
     aop = np.where(aop >= np.pi / 2, aop - np.pi, aop)
     f32 = np.float32
     return PolarizationImage(
-        s0.astype(f32), s1.astype(f32), s2.astype(f32), aop.astype(f32), dop.astype(f32),
-        img.saturated,
-    )  # fmt: skip
+        s0.astype(f32), s1.astype(f32), s2.astype(f32), aop.astype(f32), dop.astype(f32), sat
+    )
 
 
 def grid_uv(

@@ -12,7 +12,7 @@ import sensors
 from sensors.polarimeter.unit.bench import measure_lens
 from sensors.polarimeter.unit.hardware import CalibrationUncertainty, HardwareErrors, MountingError
 from sensors.polarimeter.unit.lens import LensPolarization, fold_radial, radial_mueller
-from twin.onboard.lens import compensate, compensate_grid, grid_uv
+from twin.onboard.lens import compensate, compensate_at, compensate_grid, grid_uv
 from twin.onboard.polarization import stokes_from_mosaic
 
 LENS_ONLY = HardwareErrors(CalibrationUncertainty.ideal(), MountingError.ideal())
@@ -135,6 +135,22 @@ def test_the_cached_grid_compensation_equals_the_per_call_one_bit_for_bit():
     # A crop elsewhere in the frame is another grid: its own factors, not the first one's.
     crop = compensate_grid(img, cal, "superpixel", origin=(2, 0))
     assert not np.array_equal(crop.aop, want.aop)
+
+
+def test_the_compiled_compensation_at_some_pixels_is_the_grids_bit_for_bit():
+    # compensate_at / compensate_gathered (POL's window pixels, lens_kernel.undo_at) against
+    # compensate_grid (numpy's apply_inverse on the whole grid) at the same pixels (issue #31).
+    cam = sensors.create("polarimeter", "ideal_bin4")
+    cam.configure_hardware(LENS_ONLY)
+    cal = cam.draw_unit(np.random.default_rng(3)).calibration
+    st, _ = _uniform_frame(cam, 0.3)
+    raw = cam._dofp.render_mosaic(st, 1000.0, np.random.default_rng(1))
+    img = stokes_from_mosaic(raw, cal.layout_deg, black_level_dn=cal.black_level_dn)
+    want = compensate_grid(img, cal, "block", block=2)
+    idx = np.flatnonzero(np.random.default_rng(2).random(img.s0.size) < 0.3)
+    got = compensate_at(img, cal, idx, "block", block=2)
+    for name in ("s0", "s1", "s2", "aop", "dop", "saturated"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name).reshape(-1)[idx])
 
 
 def test_without_compensation_the_vehicle_gets_no_table_and_an_ideal_lens_changes_nothing():
