@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter import chain_kernel
+from sensors.polarimeter import chain_kernel, pixel_kernel
 from sensors.polarimeter.fine_grid import FineGrid, bilinear_into
 from sensors.polarimeter.occlusion import upsample_nearest
 from sensors.polarimeter.optics import transmission as transmission_mod
@@ -146,10 +146,10 @@ class _FastPlan:
         b0, b1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, hc)
         a0, a1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, wc)
         self.roi = (b0, b1, a0, a1)
-        self.invalid = np.ascontiguousarray(~valid[b0 * s : b1 * s, a0 * s : a1 * s]).astype(
-            np.uint8
-        )
-        self.zeros = np.zeros((*self.invalid.shape, 3), dtype=np.float32)
+        # The box's pixels outside the image circle (flat, into the frame): zeroed each frame.
+        box = np.zeros((h, w), dtype=bool)
+        box[b0 * s : b1 * s, a0 * s : a1 * s] = True
+        self.invalid_in_box = np.flatnonzero(box & ~valid).astype(np.intp)
         # The valid pixels of each cell (flat indices, −1 = none), and the rays to gather from.
         hc1, wc1 = self.cell_valid.shape
         ci, cj = np.meshgrid(np.arange(hc1), np.arange(wc1), indexing="ij")
@@ -215,8 +215,10 @@ class _FastPlan:
         return cv2.resize(coarse, (w, h), interpolation=cv2.INTER_NEAREST)
 
     def gather_rays(self, idx: NDArray[np.intp]) -> FloatArray:
-        """(N, 3) the rays of the given pixels (a view of planar storage)."""
-        return np.take(self._rays_planar, idx, axis=1).T
+        """(N, 3) the rays of the given pixels (from planar storage)."""
+        out = np.empty((len(idx), 3), dtype=self._rays_planar.dtype)
+        pixel_kernel.gather_columns(self._rays_planar, idx, out)
+        return out
 
     def interpolate(self, grid: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
         """(N, 3) ``cv2.resize``'s bilinear value of a (H/s, W/s, 3) point grid at given pixels."""
@@ -239,9 +241,8 @@ class _FastPlan:
 
 
 def _scatter_rows(flat: FloatArray, idx: NDArray[np.intp], rows: FloatArray) -> None:
-    """flat[idx] = rows for (N, 3) float32 rows, moved as 12-byte records (2× numpy's row path)."""
-    rec = np.dtype((np.void, 12))
-    flat.view(rec)[idx, 0] = np.ascontiguousarray(rows, dtype=np.float32).view(rec)[:, 0]
+    """flat[idx] = rows for (N, 3) float32 rows (one compiled loop: pixel_kernel)."""
+    pixel_kernel.scatter_rows(flat, idx, np.ascontiguousarray(rows, dtype=np.float32))
 
 
 class FastPath:
@@ -463,7 +464,7 @@ class FastPath:
         st[b0 * s : b1 * s, a1 * s :] = 0.0
         roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
         cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
-        cv2.copyTo(plan.zeros, plan.invalid, roi)
+        pixel_kernel.zero_rows(st.reshape(-1, 3), plan.invalid_in_box)
         flat = st.reshape(-1, 3)
         # --- the exact chain at the valid pixels of the rough cells -----------------------------
         idx = plan.pixels(exact_cells)
