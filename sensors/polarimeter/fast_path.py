@@ -214,6 +214,12 @@ class _FastPlan:
             return upsample_nearest(coarse, s, (h, w))
         return cv2.resize(coarse, (w, h), interpolation=cv2.INTER_NEAREST)
 
+    def gather_points(self, use: NDArray[np.intp]) -> FloatArray:
+        """(N, 3) the float32 rays of the points at positions ``use`` of :attr:`points`."""
+        out = np.empty((len(use), 3), dtype=self.rays.dtype)
+        pixel_kernel.gather_rows(self.rays, use, out)
+        return out
+
     def gather_rays(self, idx: NDArray[np.intp]) -> FloatArray:
         """(N, 3) the rays of the given pixels (from planar storage)."""
         out = np.empty((len(idx), 3), dtype=self._rays_planar.dtype)
@@ -445,7 +451,7 @@ class FastPath:
         use = plan.smooth_corners(cells)
         points = plan.points[use]
         tot_c, sees_c, scat_c = self._render_points(
-            plan.rays[use],
+            plan.gather_points(use),
             (plan.basis, use),
             plan.psf[use],
             c_cn,
@@ -454,7 +460,7 @@ class FastPath:
         )
         # --- the coarse frame, upsampled over the image circle's bounding box -------------------
         coarse = np.zeros((hc * wc, 3), dtype=np.float32)
-        coarse[points] = tot_c
+        _scatter_rows(coarse, points, tot_c)
         # The resize fills the image circle's box: only the frame around it is zeroed.
         st = np.empty((h, w, 3), dtype=np.float32)
         b0, b1, a0, a1 = plan.roi

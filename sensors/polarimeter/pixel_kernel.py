@@ -23,6 +23,16 @@ def gather_columns(planar, idx, out):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def gather_rows(rows, idx, out):  # type: ignore[no-untyped-def]
+    """out[i] = rows[idx[i]] for (M, 3) ``rows`` and (N, 3) ``out``."""
+    for i in range(idx.shape[0]):
+        j = idx[i]
+        out[i, 0] = rows[j, 0]
+        out[i, 1] = rows[j, 1]
+        out[i, 2] = rows[j, 2]
+
+
+@njit(cache=True)
 def scatter_rows(flat, idx, rows):  # type: ignore[no-untyped-def]
     """flat[idx[i]] = rows[i] for (M, 3) ``flat`` and (N, 3) ``rows``."""
     for i in range(idx.shape[0]):

@@ -14,6 +14,10 @@ def test_gathers_scatters_and_zeroing_are_numpys():
     out = np.empty((700, 3), np.float32)
     pixel_kernel.gather_columns(planar, idx, out)
     assert np.array_equal(out, planar[:, idx].T)
+    rows = np.ascontiguousarray(planar.T)
+    again = np.empty_like(out)
+    pixel_kernel.gather_rows(rows, idx, again)
+    assert np.array_equal(again, rows[idx])
     flat = rng.standard_normal((5000, 3)).astype(np.float32)
     want = flat.copy()
     want[idx] = out
