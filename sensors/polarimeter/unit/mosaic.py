@@ -452,7 +452,8 @@ class DoFPSensor:
                     np.uint16(sat),
                     band_out.reshape(-1),
                 )
-            elif self._fp.dsnu_e is None:
+                continue  # to_dn clamps at saturation itself
+            if self._fp.dsnu_e is None:
                 cv2.addWeighted(lam, inv_k, lam, 0.0, s.black_level_dn, band_out, cv2.CV_16U)
             else:
                 dsnu = self._fp.dsnu_e[r0:r1]
