@@ -78,14 +78,13 @@ def chain_points(
     radiance; n (the water's index); sky (:func:`_sky`'s tuple); cos_reach (a ray is a disc
     candidate when the cosine of its sky direction's angle from the sun is at least this);
     up_c, north_c (ENU up and North in the camera frame: rows 2 and 1 of C_c^n); scale (the
-    photon scale); sbuf ((3, m) float64 scratch); k (:func:`column_kernel.scatter_pixels`'s
-    arguments after ``out``).
+    photon scale); sbuf ((4, m) float64 scratch: the scattered light and the transmittance);
+    k (:func:`column_kernel.scatter_pixels`'s arguments after ``out``).
     """
     m = x.shape[0]
     # The scattered light first, by the column kernel's own loop (float64, unrounded): its
     # per-ray body inlined here ran 35 % slower there too (numba's inliner, measured).
     scatter_pixels(x, y, z, sbuf, *k)
-    tau_c = k[1]
     want_scat = scat.shape[0] > 0
     any_occ = occluded.shape[0] > 0
     g = n * n  # the n² radiance law
@@ -132,7 +131,9 @@ def chain_points(
             t_p = num / (a_p * a_p + 1e-30)
             m00 = 0.5 * g * (t_p + t_s)
             m01 = 0.5 * g * (t_p - t_s)
-            t = math.exp(-tau_c / max(vz, 1e-6))  # water._direct_block's
+            # water._direct_block's e^(−c z / max(v_z, 10⁻⁶)): the scattering kernel's, as
+            # v_z > 0 inside the window (the same expression there, computed once).
+            t = sbuf[3, i]
             ti = (m00 * wi + m01 * wq) * t
             tq = (m01 * wi + m00 * wq) * t
             tu = m22 * wu * t
@@ -224,7 +225,7 @@ def render_points(
     resp = np.empty((m, 3), dtype=np.float64)
     occ = np.empty(0, dtype=np.uint8) if occluded is None else occluded.view(np.uint8)
     scale = float(np.float32(photon_scale))
-    sbuf = np.empty((3, m), dtype=np.float64)
+    sbuf = np.empty((4, m), dtype=np.float64)
     nc = chain_points(
         x, y, z, cos_air, occ, basis[0], basis[1], out, scat, sees, cand, chi, resp,
         float(n_water), sky_t, cos_reach, c[2].copy(), c[1].copy(), scale, sbuf, column_args,

@@ -302,6 +302,9 @@ def scatter_pixels(
 ):  # fmt: skip
     """Fill ``out[0..2, i]`` with the scattered Stokes of look direction (x, y, z)[i] (ENU).
 
+    An ``out`` of four rows also gets each ray's transmittance from the surface, e^(−c z/v_z)
+    (0 looking down), in its fourth: the direct light's (``chain_kernel``).
+
     Arguments, in order: x, y, z ((m,) look-direction components); out ((3, m)); single (add
     single scattering: a lit beam, b > 0); cz, c (c z and c); sx, sy, sz (the look direction
     towards the refracted sun); e_sun (the beam's normal irradiance below the surface); beam_q
@@ -320,6 +323,7 @@ def scatter_pixels(
     # The aureole's outer edge as a cosine, once (aureole_at tests it again, exactly so).
     cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
     e_a1 = math.exp(-cz / max(sz, 1e-3))  # the beam's attenuation to the camera's depth
+    keep_t = out.shape[0] > 3  # a fourth row: each ray's transmittance from the surface
     for i in range(m):
         vx = float(x[i])
         vy = float(y[i])
@@ -329,6 +333,8 @@ def scatter_pixels(
         su = 0.0
         # Transmittance from the surface along v (single scattering's a2, the reflection's t).
         e_a2 = math.exp(-cz / vz) if vz > 0.0 else 0.0
+        if keep_t:
+            out[3, i] = e_a2
         if single:
             si, sq, su = _single(
                 vx, vy, vz, cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z, luts, e_a1, e_a2

@@ -131,3 +131,25 @@ def test_skies_the_kernel_does_not_cover_take_the_numpy_chain(sky, sun_zen):
     cam.compiled_chain = False
     b = cam.render_stokes(None, np.zeros(3), np.eye(3), 5.0, s)[0]
     assert np.array_equal(a, b)
+
+
+def test_the_scattering_kernels_fourth_row_is_the_direct_lights_transmittance():
+    """The chain reads e^(−c z / v_z) from the scattering kernel (column_kernel.scatter_pixels);
+    its first three rows are the same with or without the fourth."""
+    from sensors.polarimeter.optics import column_kernel, surface
+
+    cam = _camera(jerlov_type="II")
+    s = _sun(40.0, 30.0)
+    beam = surface.refract_sun_beam(s, cam.n_water)
+    fc = cam._frame_constants(s, s, 10.0)
+    k = cam._column._kernel_args(fc.state, True, True)
+    v = _rays(cam, np.eye(3), beam.look_dir, 3).astype(np.float64)
+    x, y, z = (np.ascontiguousarray(v[:, i]) for i in range(3))
+    three, four = np.empty((3, len(x))), np.empty((4, len(x)))
+    column_kernel.scatter_pixels(x, y, z, three, *k)
+    column_kernel.scatter_pixels(x, y, z, four, *k)
+    assert np.array_equal(four[:3], three)
+    cz = k[1]
+    want = [math.exp(-cz / vz) if vz > 0 else 0.0 for vz in z]
+    np.testing.assert_allclose(four[3], want, rtol=1e-15, atol=0.0)
+    assert cz > 0 and (four[3][z <= 0] == 0).all() and (four[3][z > 0.2] > 0).all()
