@@ -146,10 +146,10 @@ class _FastPlan:
         b0, b1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, hc)
         a0, a1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, wc)
         self.roi = (b0, b1, a0, a1)
-        # The box's pixels outside the image circle (flat, into the frame): zeroed each frame.
-        box = np.zeros((h, w), dtype=bool)
-        box[b0 * s : b1 * s, a0 * s : a1 * s] = True
-        self.invalid_in_box = np.flatnonzero(box & ~valid).astype(np.intp)
+        self.invalid = np.ascontiguousarray(~valid[b0 * s : b1 * s, a0 * s : a1 * s]).astype(
+            np.uint8
+        )
+        self.zeros = np.zeros((*self.invalid.shape, 3), dtype=np.float32)
         # The valid pixels of each cell (flat indices, −1 = none), and the rays to gather from.
         hc1, wc1 = self.cell_valid.shape
         ci, cj = np.meshgrid(np.arange(hc1), np.arange(wc1), indexing="ij")
@@ -470,7 +470,7 @@ class FastPath:
         st[b0 * s : b1 * s, a1 * s :] = 0.0
         roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
         cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
-        pixel_kernel.zero_rows(st.reshape(-1, 3), plan.invalid_in_box)
+        cv2.copyTo(plan.zeros, plan.invalid, roi)  # OpenCV's masked copy: faster than a scatter
         flat = st.reshape(-1, 3)
         # --- the exact chain at the valid pixels of the rough cells -----------------------------
         idx = plan.pixels(exact_cells)

@@ -1,10 +1,9 @@
 """The fast path's gathers and scatters of pixel rows, compiled (issue #31).
 
 Pure copies, so the numbers are the numpy versions' by construction: a frame's exact pixels'
-rays gathered from the camera's planar storage, their Stokes scattered back into the frame, the
-invalid pixels of the image circle's box zeroed. numpy's fancy indexing pays per element for
-its generality (and cv2.copyTo a masked pass over the whole box); these are one loop each over
-the pixels concerned (~20 000 of a 612×512 frame's 313 000).
+rays gathered from the camera's planar storage and their Stokes scattered back into the frame,
+the coarse points' likewise. numpy's fancy indexing pays per element for its generality; these
+are one loop each over the pixels concerned (~20 000 of a 612×512 frame's 313 000).
 """
 
 from __future__ import annotations
@@ -40,13 +39,3 @@ def scatter_rows(flat, idx, rows):  # type: ignore[no-untyped-def]
         flat[j, 0] = rows[i, 0]
         flat[j, 1] = rows[i, 1]
         flat[j, 2] = rows[i, 2]
-
-
-@njit(cache=True)
-def zero_rows(flat, idx):  # type: ignore[no-untyped-def]
-    """flat[idx[i]] = 0 for (M, 3) ``flat``."""
-    for i in range(idx.shape[0]):
-        j = idx[i]
-        flat[j, 0] = 0.0
-        flat[j, 1] = 0.0
-        flat[j, 2] = 0.0
