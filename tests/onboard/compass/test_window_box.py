@@ -100,3 +100,26 @@ def test_the_filtered_box_is_the_whole_images_where_the_method_reads_it(ksize, c
     inner = cv2.erode(win.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
     for part, whole, mask in ((filt_b, filt, win), (gx_b, gx, inner), (gy_b, gy, inner)):
         assert np.array_equal(part[mask[box]], whole[mask])
+
+
+@pytest.mark.parametrize("m", [2, 4])
+def test_a_boxs_intensity_saturation_and_stokes_are_the_whole_grids_there(m):
+    """Each analysis pixel is its own m × m raw block: any box of the grid gives its numbers."""
+    cam = sensors.create("polarimeter", "phx050s_p_bin4")
+    cal = cam.calibration()
+    geo = analysis_grid.analysis_geometry(cal, m)
+    rng = np.random.default_rng(m)
+    raw = rng.integers(0, 4096, (cal.height_px, cal.width_px)).astype(np.uint16)
+    raw[rng.random(raw.shape) < 0.01] = cal.saturation_dn
+    i_all, s_all = analysis_grid.block_intensity(raw, cal, geo)
+    p_all = pol.binned_stokes(raw, cal, geo)
+    h, w = i_all.shape
+    for _ in range(20):
+        r0, c0 = rng.integers(0, h - 1), rng.integers(0, w - 1)
+        box = (slice(r0, rng.integers(r0 + 1, h + 1)), slice(c0, rng.integers(c0 + 1, w + 1)))
+        i_b, s_b = analysis_grid.block_intensity(raw, cal, geo, box)
+        assert np.array_equal(i_b, i_all[box]) and np.array_equal(s_b, s_all[box])
+        p_b = pol.binned_stokes(raw, cal, geo, box)
+        for name in ("s0", "s1", "s2"):
+            assert np.array_equal(getattr(p_b, name), getattr(p_all, name)[box])
+    assert s_all.any()

@@ -107,28 +107,49 @@ def analysis_geometry(
 
 
 def block_intensity(
-    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+    raw: NDArray[np.generic],
+    calibration: CameraCalibration,
+    geo: AnalysisGeometry,
+    box: tuple[slice, slice] | None = None,
 ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-    """I (eq. 5) on the analysis grid, DN above black level, and its block-saturation mask."""
+    """I (eq. 5) on the analysis grid, DN above black level, and its block-saturation mask.
+
+    ``box`` (rows, columns of the grid): that part only, the whole grid's numbers there (each
+    analysis pixel is the mean of its own m × m raw block; tested).
+    """
     m = geo.m
-    h, w = geo.cal.height_px, geo.cal.width_px
-    r = raw[: h * m, : w * m]
-    rf = r.astype(np.float32)
-    s0 = cv2.resize(rf, (w, h), interpolation=cv2.INTER_AREA)
+    r = _raw_blocks(raw, geo, box)
+    h, w = r.shape[0] // m, r.shape[1] // m
+    s0 = cv2.resize(r.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)
     # S0 = ½ ΣI_k over one of each analyser = 2 × the block mean of the mosaic.
     s0 = 2.0 * (s0 - np.float32(calibration.black_level_dn))
-    return s0, block_saturation(raw, calibration, geo)
+    return s0, block_saturation(raw, calibration, geo, box)
 
 
 def block_saturation(
-    raw: NDArray[np.generic], calibration: CameraCalibration, geo: AnalysisGeometry
+    raw: NDArray[np.generic],
+    calibration: CameraCalibration,
+    geo: AnalysisGeometry,
+    box: tuple[slice, slice] | None = None,
 ) -> NDArray[np.bool_]:
     """Analysis pixels whose m×m raw block holds a clipped value (≥ ``saturation_dn``)."""
     m = geo.m
-    h, w = geo.cal.height_px, geo.cal.width_px
-    sat = (raw[: h * m, : w * m] >= calibration.saturation_dn).view(np.uint8) * np.uint8(255)
+    r = _raw_blocks(raw, geo, box)
+    h, w = r.shape[0] // m, r.shape[1] // m
+    sat = (r >= calibration.saturation_dn).view(np.uint8) * np.uint8(255)
     # 255 per clipped pixel so that INTER_AREA's rounded block mean cannot round one away.
     return cv2.resize(sat, (w, h), interpolation=cv2.INTER_AREA) > 0
+
+
+def _raw_blocks(
+    raw: NDArray[np.generic], geo: AnalysisGeometry, box: tuple[slice, slice] | None
+) -> NDArray[np.generic]:
+    """The raw pixels of the grid's blocks (of its ``box``'s)."""
+    m = geo.m
+    r0, r1, c0, c1 = 0, geo.cal.height_px, 0, geo.cal.width_px
+    if box is not None:
+        r0, r1, c0, c1 = box[0].start, box[0].stop, box[1].start, box[1].stop
+    return raw[m * r0 : m * r1, m * c0 : m * c1]
 
 
 def window_box(in_window: NDArray[np.bool_], pad: int) -> tuple[slice, slice]:

@@ -192,7 +192,6 @@ class LigCompass(CompassMethod):
         calibration, ctx = frame.calibration, frame.ctx
         pro = frame_prologue(frame, cfg.analysis_max_width_px)
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
-        intensity, sat = block_intensity(raw, calibration, geo)
 
         # Eqs. 6–7: in-window pixels from the attitude hint.
         c_c_h = level_rotation(calibration, ctx)
@@ -208,7 +207,17 @@ class LigCompass(CompassMethod):
         n_window = int(in_window.sum())
         if n_window < cfg.min_pixels:
             return no_fix(self.name, "Snell's window is (almost) out of view", n_window)
-        mean_i = float(intensity[in_window].mean())
+        # Everything below works on the window's box: the in-window pixels' rows and columns
+        # widened by the filters' support (a quarter of the image at 10 m). Every value the method
+        # reads is the whole image's: the intensity (each pixel its own raw block), the median at
+        # the window's pixels (an order statistic of the same neighbours), the gradient and the
+        # excluded neighbourhoods at the core's (_filtered_box; tests/onboard/compass/
+        # test_window_box.py).
+        k = max(cfg.median_ksize, 1)
+        box = _box(in_window, cfg.median_ksize)
+        inten_b, sat_b = block_intensity(raw, calibration, geo, box)
+        win_b, core_b = in_window[box], core[box]
+        mean_i = float(inten_b[win_b].mean())
         if not (mean_i >= cfg.min_signal_dn):
             return no_fix(
                 self.name,
@@ -217,29 +226,20 @@ class LigCompass(CompassMethod):
                 mean_intensity_dn=mean_i,
             )
 
-        # Median filter, then the image gradient (the LIG vectors, §2), on the window's box: the
-        # in-window pixels' rows and columns widened by the filters' support (a quarter of the
-        # image at 10 m). Every value the method reads is the whole image's: the median at the
-        # window's pixels (an order statistic of the same neighbours) and the gradient at the
-        # core's (_filtered_box).
-        k = max(cfg.median_ksize, 1)
-        box, filt_b, gx_b, gy_b = _filtered_box(intensity, in_window, cfg.median_ksize)
-        inten_b = intensity[box]
+        # Median filter, then the image gradient (the LIG vectors, §2).
+        filt_b, gx_b, gy_b = _filtered(inten_b, cfg.median_ksize)
         # Noise: MAD of the median filter's residual in the window; the Sobel (scale 1/8) of a
         # k×k median has a per-component std ≈ σ · √(12)/8 · √(π/2)/k (median of k² ≈ 1.25σ/k).
-        core_b = core[box]
         resid = (inten_b - filt_b)[core_b]
         sigma = _MAD_TO_SIGMA * float(np.median(np.abs(resid - np.median(resid))))
         sigma_g = sigma * math.sqrt(12.0) / 8.0 * math.sqrt(math.pi / 2.0) / k
         gmag2 = gx_b * gx_b + gy_b * gy_b
         radius = k // 2 + 1  # median + Sobel support
-        bad = dilate(~geo.valid, radius)
+        bad = dilate(~geo.valid[box], radius)
         if cfg.exclude_saturated:
-            bad = bad | dilate(sat, radius)
+            bad = bad | dilate(sat_b, radius)
         use = np.zeros(core.shape, dtype=bool)
-        use[box] = (
-            core_b & ~bad[box] & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
-        )
+        use[box] = core_b & ~bad & (gmag2 > (cfg.gradient_snr_min * sigma_g) ** 2) & (gmag2 > 0)
         filt, gx, gy = (_whole(a, box, core.shape) for a in (filt_b, gx_b, gy_b))
         idx = np.flatnonzero(use)
         if idx.size < cfg.min_pixels:
@@ -319,20 +319,31 @@ class LigCompass(CompassMethod):
         )
 
 
+def _box(in_window: NDArray[np.bool_], ksize: int) -> tuple[slice, slice]:
+    """LIG's box: the window's, widened by the median's and the Sobel's support and one more."""
+    return window_box(in_window, max(ksize, 1) // 2 + 2)
+
+
 def _filtered_box(
     intensity: NDArray[np.float32], in_window: NDArray[np.bool_], ksize: int
 ) -> tuple[tuple[slice, slice], NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]:
-    """The window's box; its median-filtered intensity and the Sobel gradients (gx, gy) of that.
+    """The window's box (LIG's) and :func:`_filtered` of the whole image's ``intensity`` there.
 
     The median is the whole image's at every in-window pixel, the gradient at every in-window
-    pixel whose 3×3 neighbours are in the window (``tests/onboard/compass/test_lig_box.py``).
+    pixel whose 3×3 neighbours are in the window (``tests/onboard/compass/test_window_box.py``).
     """
-    box = window_box(in_window, max(ksize, 1) // 2 + 2)
-    part = intensity[box]
-    filt = cv2.medianBlur(part, ksize) if ksize > 1 else part
+    box = _box(in_window, ksize)
+    return (box, *_filtered(intensity[box], ksize))
+
+
+def _filtered(
+    intensity: NDArray[np.float32], ksize: int
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]:
+    """The median-filtered intensity and the Sobel gradients (gx, gy) of that."""
+    filt = cv2.medianBlur(intensity, ksize) if ksize > 1 else intensity
     gx = cv2.Sobel(filt, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
     gy = cv2.Sobel(filt, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
-    return box, filt, gx, gy
+    return filt, gx, gy
 
 
 def _whole(part: NDArray[np.float32], box: tuple[slice, slice], shape: tuple[int, int]):
