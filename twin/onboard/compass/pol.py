@@ -195,7 +195,6 @@ class PolCompass(CompassMethod):
         calibration, ctx = frame.calibration, frame.ctx
         pro = frame_prologue(frame, cfg.analysis_max_width_px)
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
-        sat = block_saturation(raw, calibration, geo)
 
         c_c_h = level_rotation(calibration, ctx)
         theta_c = critical_angle(n_w)
@@ -226,7 +225,8 @@ class PolCompass(CompassMethod):
             )
         use = core.reshape(-1)[win_idx] & (pw.s0 > 0) & (pw.dop >= cfg.min_dop)
         if cfg.exclude_saturated:
-            use &= ~sat.reshape(-1)[win_idx]
+            sat = block_saturation(raw, calibration, geo, box)
+            use &= ~sat.reshape(-1)[box_indices(win_idx, box, geo.cal.width_px)]
         idx = win_idx[use]
         if idx.size < cfg.min_pixels:
             return no_fix(
