@@ -461,13 +461,10 @@ class FastPath:
         # --- the coarse frame, upsampled over the image circle's bounding box -------------------
         coarse = np.zeros((hc * wc, 3), dtype=np.float32)
         _scatter_rows(coarse, points, tot_c)
-        # The resize fills the image circle's box: only the frame around it is zeroed.
-        st = np.empty((h, w, 3), dtype=np.float32)
+        # np.zeros, not an empty frame zeroed around the box: a large frame comes zeroed from the
+        # kernel's fresh pages (2448×2048: 2 ms less than writing the zeros, measured).
+        st = np.zeros((h, w, 3), dtype=np.float32)
         b0, b1, a0, a1 = plan.roi
-        st[: b0 * s] = 0.0
-        st[b1 * s :] = 0.0
-        st[b0 * s : b1 * s, : a0 * s] = 0.0
-        st[b0 * s : b1 * s, a1 * s :] = 0.0
         roi = st[b0 * s : b1 * s, a0 * s : a1 * s]
         cv2.resize(coarse.reshape(hc, wc, 3)[b0:b1, a0:a1], (roi.shape[1], roi.shape[0]), dst=roi)
         cv2.copyTo(plan.zeros, plan.invalid, roi)  # OpenCV's masked copy: faster than a scatter
