@@ -69,29 +69,10 @@ class PointScatterers:
         S1 = S2 = 0 in any basis. Points on occluded pixels are dropped (the hull's shadow and
         what lies behind it are not known). Returns how many were added.
         """
-        if kind == "bubbles":
-            pop: Any = self._bubbles()
-            stream, g, albedo = self._bubble_rng, bubbles_mod.HG_G, 1.0
-        else:
-            pop = self._particles()
-            stream, g, albedo = self._particle_rng, particles_mod.HG_G, particles_mod.ALBEDO
-        if pop is None or depth_m <= 0.0 or stream is None:
+        sources = self._point_sources(depth_m, sun, kind)
+        if sources is None:
             return 0
-        draw = pop.draw(depth_m, stream)
-        if draw.radii_m.size == 0:
-            return 0
-        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
-        beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
-        sky = self.optics.sky
-        e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
-        assert self._column is not None
-        intensity, r = bubbles_mod.bubble_radiance(
-            draw, beam.look_dir, e_sun, self._column.water.c_per_m, g=g, albedo=albedo
-        )
-        if self._caustics is not None:  # the beam's caustics light the points too
-            cf, (x0, y0) = self._caustics
-            off = draw.offsets_m
-            intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)
+        draw, intensity, r = sources
         dirs = (draw.offsets_m / r[:, None]) @ c_cn  # ENU → camera frame (rows: c_cnᵀ d)
         cam = self.camera
         # Only the points within the lens's field are projected (about half of them): one more
@@ -119,6 +100,35 @@ class PointScatterers:
         flat = st[..., 0].reshape(-1)
         np.add.at(flat, pix, add.astype(np.float32))
         return int(sel.size)
+
+    def _point_sources(
+        self, depth_m: float, sun: Any, kind: str
+    ) -> tuple[bubbles_mod.BubbleDraw, NDArray[np.float64], NDArray[np.float64]] | None:
+        """This frame's bubbles or aggregates: the draw, each one's intensity and range; or None."""
+        if kind == "bubbles":
+            pop: Any = self._bubbles()
+            stream, g, albedo = self._bubble_rng, bubbles_mod.HG_G, 1.0
+        else:
+            pop = self._particles()
+            stream, g, albedo = self._particle_rng, particles_mod.HG_G, particles_mod.ALBEDO
+        if pop is None or depth_m <= 0.0 or stream is None:
+            return None
+        draw = pop.draw(depth_m, stream)
+        if draw.radii_m.size == 0:
+            return None
+        sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
+        beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
+        sky = self.optics.sky
+        e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
+        assert self._column is not None
+        intensity, r = bubbles_mod.bubble_radiance(
+            draw, beam.look_dir, e_sun, self._column.water.c_per_m, g=g, albedo=albedo
+        )
+        if self._caustics is not None:  # the beam's caustics light the points too
+            cf, (x0, y0) = self._caustics
+            off = draw.offsets_m
+            intensity = intensity * cf.factor_at(x0 + off[:, 0], y0 + off[:, 1], draw.depths_m)
+        return draw, intensity, r
 
     def _outside_solid_angle(self) -> NDArray[np.float64]:
         """(H, W) each pixel's solid angle in the water, outside the housing.

@@ -117,14 +117,20 @@ def test_the_lens_turns_the_aop_at_the_edge_and_the_bench_correction_undoes_it()
     assert abs(np.median(fixed_err[edge])) < 0.1 * abs(expected)
 
 
-def test_the_cached_grid_compensation_equals_the_per_call_one_bit_for_bit():
-    # compensate_grid keeps a grid's factors in the calibration (issue #31): the same numbers.
+def _bench_frame():
+    """A drawn unit's calibration and a frame of uniform light through its lens (DoP 0.3)."""
     cam = sensors.create("polarimeter", "ideal_bin4")
     cam.configure_hardware(LENS_ONLY)
     cal = cam.draw_unit(np.random.default_rng(3)).calibration
     st, _ = _uniform_frame(cam, 0.3)
     raw = cam._dofp.render_mosaic(st, 1000.0, np.random.default_rng(1))
     img = stokes_from_mosaic(raw, cal.layout_deg, black_level_dn=cal.black_level_dn)
+    return cal, img
+
+
+def test_the_cached_grid_compensation_equals_the_per_call_one_bit_for_bit():
+    # compensate_grid keeps a grid's factors in the calibration (issue #31): the same numbers.
+    cal, img = _bench_frame()
     for kind, block in (("superpixel", 2), ("block", 2)):
         want = compensate(img, cal, *grid_uv(img.shape, kind, block=block))
         for _ in range(2):  # computed, then from the cache
@@ -140,12 +146,7 @@ def test_the_cached_grid_compensation_equals_the_per_call_one_bit_for_bit():
 def test_the_compiled_compensation_at_some_pixels_is_the_grids_bit_for_bit():
     # compensate_at / compensate_gathered (POL's window pixels, lens_kernel.undo_at) against
     # compensate_grid (numpy's apply_inverse on the whole grid) at the same pixels (issue #31).
-    cam = sensors.create("polarimeter", "ideal_bin4")
-    cam.configure_hardware(LENS_ONLY)
-    cal = cam.draw_unit(np.random.default_rng(3)).calibration
-    st, _ = _uniform_frame(cam, 0.3)
-    raw = cam._dofp.render_mosaic(st, 1000.0, np.random.default_rng(1))
-    img = stokes_from_mosaic(raw, cal.layout_deg, black_level_dn=cal.black_level_dn)
+    cal, img = _bench_frame()
     want = compensate_grid(img, cal, "block", block=2)
     idx = np.flatnonzero(np.random.default_rng(2).random(img.s0.size) < 0.3)
     got = compensate_at(img, cal, idx, "block", block=2)

@@ -15,9 +15,6 @@ import pytest
 
 import sensors
 from sensors.polarimeter import points as points_mod
-from sensors.polarimeter.optics import bubbles as bubbles_mod
-from sensors.polarimeter.optics import particles as particles_mod
-from sensors.polarimeter.optics import surface as surface_mod
 from sensors.polarimeter.render import OpticsConfig
 
 SUN = np.array([math.cos(math.radians(40)), 0.0, math.sin(math.radians(40))])
@@ -25,24 +22,10 @@ SUN = np.array([math.cos(math.radians(40)), 0.0, math.sin(math.radians(40))])
 
 def _add_points_reference(self, st, occluded, c_cn, depth_m, sun, kind) -> int:
     """Every drawn point projected, the frame indexed by (row, column)."""
-    if kind == "bubbles":
-        pop: Any = self._bubbles()
-        stream, g, albedo = self._bubble_rng, bubbles_mod.HG_G, 1.0
-    else:
-        pop = self._particles()
-        stream, g, albedo = self._particle_rng, particles_mod.HG_G, particles_mod.ALBEDO
-    if pop is None or depth_m <= 0.0 or stream is None:
+    sources = self._point_sources(depth_m, sun, kind)  # the draw, as the method under test
+    if sources is None:
         return 0
-    draw = pop.draw(depth_m, stream)
-    if draw.radii_m.size == 0:
-        return 0
-    sun_enu = np.asarray(getattr(sun, "direction_enu", sun), dtype=np.float64).reshape(3)
-    beam = surface_mod.refract_sun_beam(sun_enu, self.n_water)
-    sky = self.optics.sky
-    e_sun = sky.sun_disc_radiance * math.pi * sky.sun_radius_rad**2 * beam.irradiance_factor
-    intensity, r = bubbles_mod.bubble_radiance(
-        draw, beam.look_dir, e_sun, self._column.water.c_per_m, g=g, albedo=albedo
-    )
+    draw, intensity, r = sources
     dirs = (draw.offsets_m / r[:, None]) @ c_cn
     u, v, ok = self.camera.project_outside(dirs, self.n_water)
     h, w = self.camera.shape

@@ -25,6 +25,7 @@ from twin.onboard.compass.base import (
     CompassContext,
     Frame,
 )
+from twin.onboard.compass.geometry import critical_angle
 
 
 def analysis_factor(calibration: CameraCalibration, max_width_px: int) -> int:
@@ -171,6 +172,25 @@ def box_indices(idx: NDArray[np.intp], box: tuple[slice, slice], width: int) -> 
     r0, c0 = box[0].start, box[1].start
     bw = box[1].stop - c0
     return (idx // width - r0) * bw + (idx % width - c0)
+
+
+def snell_window(
+    geo: AnalysisGeometry, c_c_h: FloatArray, n_w: float, margin_rad: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Eqs. 6–7: the analysis pixels in Snell's window from the attitude hint, and its core.
+
+    A valid pixel is in the window when its level-frame elevation cosine l^h(3) exceeds the
+    critical angle's, in the core when it is ``margin_rad`` further inside (one compiled pass,
+    ``kernels.window_and_core``).
+    """
+    theta_c = critical_angle(n_w)
+    return kernels.window_and_core(
+        geo.rays,
+        geo.valid,
+        c_c_h[2],
+        math.cos(theta_c),
+        math.cos(max(theta_c - margin_rad, 0.0)),
+    )
 
 
 def level_rotation(calibration: CameraCalibration, ctx: CompassContext) -> FloatArray:

@@ -78,6 +78,7 @@ from twin.onboard.compass.analysis_grid import (
     level_rotation,
     resolve_by_intensity_at,
     smallest_eigenvector,
+    snell_window,
     window_box,
 )
 from twin.onboard.compass.base import (
@@ -88,7 +89,6 @@ from twin.onboard.compass.base import (
     no_fix,
 )
 from twin.onboard.compass.geometry import (
-    critical_angle,
     meridian_basis,
     refract_back,
     refract_to_air,
@@ -195,15 +195,7 @@ class LigCompass(CompassMethod):
 
         # Eqs. 6–7: in-window pixels from the attitude hint.
         c_c_h = level_rotation(calibration, ctx)
-        theta_c = critical_angle(n_w)
-        # l^h(3) per pixel against the window's edge and its core (one compiled pass).
-        in_window, core = kernels.window_and_core(
-            geo.rays,
-            geo.valid,
-            c_c_h[2],
-            math.cos(theta_c),
-            math.cos(max(theta_c - cfg.window_margin_rad, 0.0)),
-        )
+        in_window, core = snell_window(geo, c_c_h, n_w, cfg.window_margin_rad)
         n_window = int(in_window.sum())
         if n_window < cfg.min_pixels:
             return no_fix(self.name, "Snell's window is (almost) out of view", n_window)

@@ -60,6 +60,7 @@ from twin.onboard.compass.analysis_grid import (
     level_rotation,
     resolve_by_intensity_at,
     smallest_eigenvector,
+    snell_window,
     window_box,
 )
 from twin.onboard.compass.base import (
@@ -69,7 +70,7 @@ from twin.onboard.compass.base import (
     finish_fix,
     no_fix,
 )
-from twin.onboard.compass.geometry import critical_angle, meridian_basis, refract_to_air
+from twin.onboard.compass.geometry import meridian_basis, refract_to_air
 from twin.onboard.lens import compensate_at, compensate_gathered
 from twin.onboard.polarization import PolarizationImage, StokesPlanes, stokes_planes_from_mosaic
 
@@ -197,15 +198,7 @@ class PolCompass(CompassMethod):
         raw, sun_enu, n_w, geo = pro.raw, pro.sun_enu, pro.water_index, pro.geometry
 
         c_c_h = level_rotation(calibration, ctx)
-        theta_c = critical_angle(n_w)
-        # l^h(3) per pixel against the window's edge and its core (one compiled pass).
-        in_window, core = kernels.window_and_core(
-            geo.rays,
-            geo.valid,
-            c_c_h[2],
-            math.cos(theta_c),
-            math.cos(max(theta_c - cfg.window_margin_rad, 0.0)),
-        )
+        in_window, core = snell_window(geo, c_c_h, n_w, cfg.window_margin_rad)
         win_idx = np.flatnonzero(in_window)
         n_window = int(win_idx.size)
         if n_window < cfg.min_pixels:
