@@ -133,3 +133,24 @@ def test_a_filter_with_its_own_time_update_takes_its_samples_one_by_one():
     assert not imu_batch.compiled_path(f)
     with pytest.raises(ValueError, match="one by one"):
         imu_batch.ImuBatch(f)
+
+
+def test_the_fan_out_leaves_a_navigator_that_takes_its_own_imu_path_to_it():
+    """Navigator.fan_out_imu takes a step's sample for plain navigators only; a subclass that
+    overrides how it takes IMU samples gets each through on_reading."""
+
+    class Counting(Navigator):
+        seen = 0
+
+        def _on_imu(self, reading: Reading) -> None:
+            Counting.seen += 1
+            super()._on_imu(reading)
+
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    rng = np.random.default_rng(3)
+    plain, counting = Navigator("ins", know, init), Counting("ins", know, init)
+    first, second = _imu(0.01, rng), _imu(0.02, rng)
+    assert Navigator.fan_out_imu([plain], first) and len(plain._batch) == 1
+    assert not Navigator.fan_out_imu([plain, counting], second)
+    assert len(plain._batch) == 1 and Counting.seen == 0  # nothing done: both take it one by one

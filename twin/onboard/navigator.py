@@ -229,7 +229,9 @@ class Navigator:
         t = reading.t
         for nav in navs:
             if (
-                nav._batch is None
+                type(nav).on_reading is not Navigator.on_reading  # a subclass takes its own path
+                or type(nav)._on_imu is not Navigator._on_imu
+                or nav._batch is None
                 or reading.sensor != nav.knowledge.imu
                 or t <= nav._t_imu
                 or (nav.config.gravity_aiding and t >= nav._next_gravity_t - 1e-9)
