@@ -2,9 +2,11 @@
 
 A frame is analysed on a grid of m×m raw blocks (:func:`analysis_factor`, :func:`analysis_geometry`:
 the calibration re-expressed on that grid, the rays through a flat port and their Jacobian);
-both methods solve for the sun as the smallest eigenvector of a weighted moment matrix
-(:class:`EigenSolution`, lu2025 eqs. 13–15) and resolve the sun/anti-sun sign by intensity
-(:func:`resolve_by_intensity`, the end of lu2025 §2).
+both take Snell's window from the attitude hint (:func:`snell_window`) and work on its box
+(:func:`window_box`: the whole grid's numbers there, for a quarter of the grid's time at 10 m),
+solve for the sun as the smallest eigenvector of a weighted moment matrix (:class:`EigenSolution`,
+lu2025 eqs. 13–15) and resolve the sun/anti-sun sign by intensity (:func:`resolve_by_intensity`,
+the end of lu2025 §2).
 """
 
 from __future__ import annotations
@@ -119,7 +121,7 @@ def block_intensity(
     analysis pixel is the mean of its own m × m raw block; tested).
     """
     m = geo.m
-    r = _raw_blocks(raw, geo, box)
+    r = raw_blocks(raw, geo, box)
     h, w = r.shape[0] // m, r.shape[1] // m
     s0 = cv2.resize(r.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)
     # S0 = ½ ΣI_k over one of each analyser = 2 × the block mean of the mosaic.
@@ -135,17 +137,17 @@ def block_saturation(
 ) -> NDArray[np.bool_]:
     """Analysis pixels whose m×m raw block holds a clipped value (≥ ``saturation_dn``)."""
     m = geo.m
-    r = _raw_blocks(raw, geo, box)
+    r = raw_blocks(raw, geo, box)
     h, w = r.shape[0] // m, r.shape[1] // m
     sat = (r >= calibration.saturation_dn).view(np.uint8) * np.uint8(255)
     # 255 per clipped pixel so that INTER_AREA's rounded block mean cannot round one away.
     return cv2.resize(sat, (w, h), interpolation=cv2.INTER_AREA) > 0
 
 
-def _raw_blocks(
+def raw_blocks(
     raw: NDArray[np.generic], geo: AnalysisGeometry, box: tuple[slice, slice] | None
 ) -> NDArray[np.generic]:
-    """The raw pixels of the grid's blocks (of its ``box``'s)."""
+    """The raw pixels of the analysis grid's m × m blocks (of its ``box``'s only)."""
     m = geo.m
     r0, r1, c0, c1 = 0, geo.cal.height_px, 0, geo.cal.width_px
     if box is not None:

@@ -58,6 +58,7 @@ from twin.onboard.compass.analysis_grid import (
     eigen_from_moments,
     frame_prologue,
     level_rotation,
+    raw_blocks,
     resolve_by_intensity_at,
     smallest_eigenvector,
     snell_window,
@@ -140,13 +141,9 @@ def binned_stokes(
     whole grid's numbers there (each analysis pixel is its own m × m raw block; tested).
     """
     m = geo.m
-    h, w = geo.cal.height_px, geo.cal.width_px
-    r0, r1, c0, c1 = 0, h, 0, w
-    if box is not None:
-        r0, r1, c0, c1 = box[0].start, box[0].stop, box[1].start, box[1].stop
-    h, w = r1 - r0, c1 - c0
+    r = raw_blocks(raw, geo, box)
+    h, w = r.shape[0] // m, r.shape[1] // m
     kwargs = {"layout_deg": calibration.layout_deg, "black_level_dn": calibration.black_level_dn}
-    r = raw[m * r0 : m * r1, m * c0 : m * c1]
     if m == 2:
         return stokes_planes_from_mosaic(np.ascontiguousarray(r), **kwargs)
     mos = np.empty((2 * h, 2 * w), np.float32)
