@@ -206,7 +206,8 @@ class _FastPlan:
 
         When the stride divides the frame, pixel (r, c) takes point (r // s, c // s), as OpenCV's
         nearest (⌊x · 1/s⌋, exact for these scales) does: two gathers (occlusion's
-        :func:`upsample_nearest`), a fifth of the resize's time (measured at 612×512).
+        :func:`upsample_nearest`; 58 µs against the resize's 74 at 612×512, 0.7 ms against 1.2
+        at 2448×2048, measured).
         """
         h, w = self._shape
         s = self.stride

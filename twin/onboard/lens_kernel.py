@@ -5,7 +5,7 @@
 each one's factors from the grid's arrays in place: no gathered copies of the six factor arrays
 and no (N,) temporary per operation. The same operations in the same order in double precision
 (numba compiles them without fused multiply-adds), so the numbers are numpy's bit for bit
-(``tests/onboard/test_polarization.py``); the angles stay numpy's (its own arctan2 and hypot).
+(``tests/sensors/polarimeter/test_lens.py``); the angles stay numpy's (its own arctan2 and hypot).
 """
 
 from __future__ import annotations
