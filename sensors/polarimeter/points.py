@@ -78,7 +78,7 @@ class PointScatterers:
         # Only the points within the lens's field are projected (about half of them): one more
         # than θ_max off the axis in the water is more than that behind the port too (a flat
         # port bends a ray from water into air away from the axis), so it misses every pixel.
-        lim = cam.theta_max + 0.01
+        lim = cam.theta_max + 0.01  # 0.01 rad beyond the field: a margin for rounding only
         if lim < math.pi:
             near = np.flatnonzero(dirs[:, 2] > math.cos(lim))
             dirs = dirs[near]
