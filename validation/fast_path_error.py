@@ -6,9 +6,9 @@ The scenes are ``tests/sensors/polarimeter/test_render_fast.py``'s (level, tilte
 Jerlov IB–3C, a low sun at the window's edge, overcast, Berry sky, in air, looking down, night);
 each row is the max over every lit valid pixel of the relative S0 error inside Snell's window and
 anywhere, the AoP error where DoP > 0.05 and > 0.2, and |Δ(S1, S2)|/S0; then the same S0 and
-polarization errors at the pixels the fine level interpolates, and the rays the chain renders
-with and without it. The test asserts bounds on
-the same numbers; this writes them down with their provenance (``<out>.md``, ``<out>.json``), for
+polarization errors at the pixels the fine level interpolates and at those the window grid gives,
+and the rays the chain renders with both and without each. The tests assert bounds on the same
+numbers; this writes them down with their provenance (``<out>.md``, ``<out>.json``), for
 docs/polarimeter.md.
 """
 
@@ -26,7 +26,10 @@ from twin.core.frames import euler_to_dcm
 from twin.record import provenance as pv
 
 ROOT = Path(__file__).resolve().parents[1]
-COLUMNS = ("s0_window", "s0", "aop_dop05", "aop_dop20", "pol", "s0_fine", "pol_fine", "rays")
+COLUMNS = (
+    "s0_window", "s0", "aop_dop05", "aop_dop20", "pol", "s0_fine", "pol_fine", "s0_grid",
+    "pol_grid", "rays",
+)  # fmt: skip
 HEADS = (
     "S0 in the window",
     "S0 anywhere",
@@ -35,7 +38,9 @@ HEADS = (
     "\\|Δ(S1, S2)\\|/S0",
     "S0 in the fine cells",
     "\\|Δ(S1, S2)\\|/S0 there",
-    "rays through the chain (without the fine level)",
+    "S0 at the window grid's pixels",
+    "\\|Δ(S1, S2)\\|/S0 there",
+    "rays through the chain (without the fine level; without the window grid)",
 )
 
 
@@ -50,8 +55,12 @@ def _scenes_module():
     return test_render_fast
 
 
-def _fine_level(fast, exact, c, depth, sun) -> dict[str, Any]:  # type: ignore[no-untyped-def]
-    """The fine level's own error (at the pixels it interpolates) and the rays it saves."""
+def _level(fast, exact, attr: str, c, depth, sun) -> dict[str, Any]:  # type: ignore[no-untyped-def]
+    """A fast-path level's own error (at the pixels it gives) and the rays it saves.
+
+    ``attr``: ``"fine_level"`` or ``"window_grid"``, switched off to find its pixels (those
+    that change) and its rays (the chain's rays with it and without).
+    """
     from sensors.polarimeter.fast_path import FastPath
 
     rays = [0]
@@ -65,23 +74,38 @@ def _fine_level(fast, exact, c, depth, sun) -> dict[str, Any]:  # type: ignore[n
     try:
         out = []
         for on in (True, False):
-            fast.fine_level = on
+            setattr(fast, attr, on)
             rays[0] = 0
             out.append((fast.render_stokes(None, np.zeros(3), c, depth, sun)[0], rays[0]))
     finally:
         FastPath._render_points = orig  # type: ignore[method-assign]
-        del fast.fine_level
+        delattr(fast, attr)
     (a, n_on), (before, n_off) = out
     b = exact.render_stokes(None, np.zeros(3), c, depth, sun)[0]
-    fine = np.any(a != before, axis=-1) & (b[..., 0] > 0)
+    mine = np.any(a != before, axis=-1) & (b[..., 0] > 0)
     s0 = np.maximum(b[..., 0], 1e-30)
     rel = np.abs(a[..., 0] - b[..., 0]) / s0
     pol = np.hypot(a[..., 1] - b[..., 1], a[..., 2] - b[..., 2]) / s0
-    used = n_on != n_off or bool(fine.any())  # a frame whose stride has no fine level: —
+    used = n_on != n_off or bool(mine.any())  # a frame whose stride has no such level: —
     return {
-        "s0_fine": float(rel[fine].max(initial=0.0)) if used else None,
-        "pol_fine": float(pol[fine].max(initial=0.0)) if used else None,
-        "rays": f"{n_on} ({n_off})" if used else str(n_off),
+        "s0": float(rel[mine].max(initial=0.0)) if used else None,
+        "pol": float(pol[mine].max(initial=0.0)) if used else None,
+        "on": n_on,
+        "off": n_off if used else None,
+    }
+
+
+def _levels(fast, exact, c, depth, sun) -> dict[str, Any]:  # type: ignore[no-untyped-def]
+    """The fine level's and the window grid's columns of a row."""
+    f = _level(fast, exact, "fine_level", c, depth, sun)
+    g = _level(fast, exact, "window_grid", c, depth, sun)
+    off = [str(x) if x is not None else "—" for x in (f["off"], g["off"])]
+    return {
+        "s0_fine": f["s0"],
+        "pol_fine": f["pol"],
+        "s0_grid": g["s0"],
+        "pol_grid": g["pol"],
+        "rays": f"{f['on']} ({'; '.join(off)})" if f["off"] or g["off"] else str(f["on"]),
     }
 
 
@@ -91,13 +115,13 @@ def run() -> list[tuple[str, str, dict[str, Any]]]:
     rows = []
     for name, c, depth, sun, optics in t.SCENES:
         fast, exact = t._pair("phx050s_p_bin4", **optics)
-        e = t._errors(fast, exact, c, depth, sun) | _fine_level(fast, exact, c, depth, sun)
+        e = t._errors(fast, exact, c, depth, sun) | _levels(fast, exact, c, depth, sun)
         rows.append(("612×512 (bin4)", name, e))
         print(name, rows[-1][2], flush=True)
     fast, exact = t._pair("phx050s_p")
     c = euler_to_dcm(0.35, -0.17, 0.4)
     sun = t._sun(30, 60)
-    e = t._errors(fast, exact, c, 1.0, sun) | _fine_level(fast, exact, c, 1.0, sun)
+    e = t._errors(fast, exact, c, 1.0, sun) | _levels(fast, exact, c, 1.0, sun)
     rows.append(("2448×2048", "tilted 1 m", e))
     return rows
 
@@ -130,9 +154,11 @@ def main() -> None:
         "",
         "Generated by `python validation/fast_path_error.py`; max over every lit valid pixel. The "
         "fine cells: the rough cells' pixels the fine level interpolates (sensors/polarimeter/"
-        "fine_grid.py), whose errors are also in the first five columns; the rays: through the "
-        "exact chain per frame, with the fine level and (in brackets) without it; — where the "
-        "frame's stride has no fine level (below 8 px, sensors/polarimeter/fast_path.py).",
+        "fine_grid.py); the window grid's pixels: the edge band's pixels inside Snell's window "
+        "it gives (sensors/polarimeter/window_grid.py); their errors are also in the first five "
+        "columns. The rays: through the exact chain per frame, with both and (in brackets) "
+        "without the fine level, without the window grid; — where the frame's stride has neither "
+        "(below 8 px, sensors/polarimeter/fast_path.py).",
         "",
         *("- " + x for x in pv.describe(prov)),
         "",

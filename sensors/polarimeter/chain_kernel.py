@@ -61,6 +61,23 @@ def _sky(px, py, pz, sky):
     return rad * scale, (a2 - b2) * amp, 2.0 * a * b * amp, cg
 
 
+@njit(cache=True, inline="always")
+def fresnel_in(n, g, ca, vz):
+    """The flat sea's Fresnel transmission into the water, radiance factors (m00, m01, m22).
+
+    transmission._flat_fresnel_block's: c_a the cosine in air, v_z in the water, g = n² (the n²
+    radiance law); in the meridian reference, which is the plane of incidence's.
+    """
+    mu = max(vz, 0.0)
+    num = 4.0 * n * ca * mu
+    a_s = ca + n * mu
+    a_p = n * ca + mu
+    m22 = g * num / (a_s * a_p + 1e-30)
+    t_s = num / (a_s * a_s + 1e-30)
+    t_p = num / (a_p * a_p + 1e-30)
+    return 0.5 * g * (t_p + t_s), 0.5 * g * (t_p - t_s), m22
+
+
 @njit(cache=True, error_model="numpy", fastmath=True)
 def chain_points(
     x, y, z, cos_air, occluded, basis, column, out, scat, sees, cand, cand_chi, cand_resp,
@@ -121,16 +138,7 @@ def chain_points(
             px = n * vx
             py = n * vy
             wi, wq, wu, cg = _sky(px, py, ca, sky)
-            # Fresnel transmission, radiance factors (transmission._flat_fresnel_block).
-            mu = max(vz, 0.0)
-            num = 4.0 * n * ca * mu
-            a_s = ca + n * mu
-            a_p = n * ca + mu
-            m22 = g * num / (a_s * a_p + 1e-30)
-            t_s = num / (a_s * a_s + 1e-30)
-            t_p = num / (a_p * a_p + 1e-30)
-            m00 = 0.5 * g * (t_p + t_s)
-            m01 = 0.5 * g * (t_p - t_s)
+            m00, m01, m22 = fresnel_in(n, g, ca, vz)
             # water._direct_block's e^(−c z / max(v_z, 10⁻⁶)): the scattering kernel's, as
             # v_z > 0 inside the window (the same expression there, computed once).
             t = sbuf[3, i]
@@ -200,14 +208,7 @@ def render_points(
     c = np.asarray(c_cn, dtype=np.float64)
     wbuf = np.empty((3, m), dtype=np.float32)
     x, y, z = world_components(rays, c, wbuf)
-    # cos θ in air as transmission._flat_fresnel_block computes it (float32, the same passes):
-    # Snell's window mask must be the numpy chain's bit for bit.
-    cos_air = np.maximum(z, 0.0)
-    np.multiply(cos_air, cos_air, out=cos_air)
-    cos_air *= n_water * n_water
-    cos_air += 1.0 - n_water * n_water
-    np.maximum(cos_air, 0.0, out=cos_air)
-    np.sqrt(cos_air, out=cos_air)
+    cos_air = cos_in_air(z, n_water)
     s = np.asarray(sun_enu, dtype=np.float64)
     ctx = sky_mod._FrameConstants(sky, s, np.dtype(np.float64))
     a, b, cc, d, e = ctx.cie
@@ -243,6 +244,21 @@ def render_points(
     if split:
         _clamp(scat)
     return out, sees, scat if split else None
+
+
+def cos_in_air(z: FloatArray, n_water: float) -> FloatArray:
+    """c_a = √max(n² v_z² + 1 − n², 0) for v_z ≥ 0, in float32 as the exact chain computes it.
+
+    The same passes as ``transmission._flat_fresnel_block``: Snell's window's mask must be the
+    numpy chain's bit for bit wherever it is taken (here and in the window grid).
+    """
+    cos_air = np.maximum(z, 0.0)
+    np.multiply(cos_air, cos_air, out=cos_air)
+    cos_air *= n_water * n_water
+    cos_air += 1.0 - n_water * n_water
+    np.maximum(cos_air, 0.0, out=cos_air)
+    np.sqrt(cos_air, out=cos_air)
+    return cos_air
 
 
 def _clamp(st: FloatArray) -> None:

@@ -69,7 +69,7 @@ def bilinear_into(grid, hf, wf, f, w, idx, flat, subtract):  # type: ignore[no-u
 
     The grid's point (i, j) sits at pixel (f·j + (f − 1)/2, f·i + (f − 1)/2) of a frame ``w``
     pixels wide: ``cv2.resize``'s bilinear convention, the coarse grid's
-    (``_FastPlan.interpolate``), clamped at the grid's edges; weights in float32 as there.
+    (``FastPlan.interpolate``), clamped at the grid's edges; weights in float32 as there.
     """
     off = (f - 1) / 2.0
     for k in range(idx.shape[0]):

@@ -55,7 +55,8 @@ from sensors.polarimeter import stokes as stokes_mod
 from sensors.polarimeter import tank as tank_mod
 
 # The configuration and truth records live in spec.py; re-exported here, where users import them.
-from sensors.polarimeter.fast_path import FastPath, _FastPlan, _Frame
+from sensors.polarimeter.fast_path import FastPath, _Frame
+from sensors.polarimeter.fast_plan import FastPlan
 from sensors.polarimeter.occlusion import occlusion_mask
 from sensors.polarimeter.optics import caustics as caustics_mod
 from sensors.polarimeter.optics import surface as surface_mod
@@ -155,7 +156,7 @@ class Polarimeter(FastPath, PointScatterers, Sensor):
         self.unit: HardwareUnit | None = None
         # A tank around the camera for offline frames (configure_tank); None = open sea.
         self.tank: tank_mod.Tank | None = None
-        self._plans: dict[tuple[float, int], _FastPlan] = {}
+        self._plans: dict[tuple[float, int], FastPlan] = {}
         self._omega_out: tuple[float, NDArray[np.float64]] | None = None
         self._configure_derived()
 

@@ -25,7 +25,7 @@ def test_each_pixel_takes_the_sample_of_its_cell_or_the_last(shape, k):
 
 @pytest.mark.parametrize(("shape", "s"), [((512, 612), 4), ((2048, 2448), 8), ((512, 612), 2)])
 def test_where_the_stride_divides_the_frame_it_is_opencvs_nearest(shape, s):
-    """The fast path's Snell-window mask (``_FastPlan.nearest``) relies on it."""
+    """The fast path's Snell-window mask (``FastPlan.nearest``) relies on it."""
     h, w = shape
     coarse = (np.random.default_rng(s).random((h // s, w // s)) < 0.5).astype(np.uint8)
     expect = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_NEAREST)
