@@ -22,7 +22,6 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 from scipy.special import chndtr
 
@@ -31,6 +30,7 @@ from sensors.polarimeter.optics.blocks import world_components
 from sensors.polarimeter.optics.column_kernel import scatter_pixels
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD
 from twin.core.arrays import FloatArray
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True, inline="always")

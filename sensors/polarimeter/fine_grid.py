@@ -13,11 +13,11 @@ the level saved there.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from sensors.polarimeter.unit import camera as camera_mod
 from twin.core.arrays import FloatArray
+from twin.core.kernel_cache import njit
 
 
 class FineGrid:

@@ -8,7 +8,7 @@ are one loop each over the pixels concerned (~20 000 of a 612×512 frame's 313 0
 
 from __future__ import annotations
 
-from numba import njit
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True)

@@ -35,13 +35,13 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from sensors.polarimeter.chain_kernel import cos_in_air, fresnel_in
 from sensors.polarimeter.optics.blocks import world_components
 from sensors.polarimeter.optics.column_kernel import _atan2_pos
 from twin.core.arrays import FloatArray
+from twin.core.kernel_cache import njit
 
 #: Pixels with c_a below this stay exact: the table's light switches from inside to outside the
 #: window where v_z crosses cos θ_c in float64, while c_a comes from float32 v_z (an error of

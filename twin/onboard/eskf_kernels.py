@@ -13,7 +13,8 @@ The numpy versions stay in :class:`~twin.onboard.eskf.Eskf` as the references.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True)

@@ -10,7 +10,7 @@ and no (N,) temporary per operation. The same operations in the same order in do
 
 from __future__ import annotations
 
-from numba import njit
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True, inline="always")

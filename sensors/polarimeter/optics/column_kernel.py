@@ -22,10 +22,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from sensors.polarimeter.optics.rt.kernel import lut_index
 from sensors.polarimeter.optics.rt.surface_kernel import meridian
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True, inline="always")

@@ -30,8 +30,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
+
+from twin.core.kernel_cache import njit
 
 
 @intrinsic

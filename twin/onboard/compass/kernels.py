@@ -20,7 +20,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from twin.core.kernel_cache import njit
 
 
 @njit(cache=True, inline="always")

@@ -32,11 +32,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from sensors.polarimeter.optics import column_kernel as ck
 from sensors.polarimeter.optics import scattering
 from twin.core.arrays import FloatArray
+from twin.core.kernel_cache import njit
 
 #: The aureole's taper starts here (degrees from the refracted sun) and reaches 0 at the last
 #: ring's outer edge; inside it the coarse bins hold almost nothing of the sun's light.

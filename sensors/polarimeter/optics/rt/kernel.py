@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from sensors.polarimeter.optics.rt.surface_kernel import (
     enter_facet,
@@ -49,6 +48,7 @@ from sensors.polarimeter.optics.rt.surface_kernel import (
     reflect_from_below,
     rotate,
 )
+from twin.core.kernel_cache import njit
 
 ROULETTE_WEIGHT = 1e-4
 ROULETTE_SURVIVAL = 0.1
