@@ -92,7 +92,8 @@ def test_node_values_undo_the_fresnel_factors_the_pixels_put_back():
         [m00 * e[..., 0] + m01 * e[..., 1], m01 * e[..., 0] + m00 * e[..., 1], m22 * e[..., 2]], -1
     )
     got = grid.node_values((direct + scat).reshape(-1, 3), scat.reshape(-1, 3), rows)
-    assert np.allclose(got[..., :3], e, rtol=1e-9) and np.array_equal(got[..., 3:], scat)
+    # float32 storage: within its rounding
+    assert np.allclose(got[..., :3], e, rtol=1e-6) and np.allclose(got[..., 3:], scat, rtol=1e-7)
 
 
 @pytest.mark.parametrize(
