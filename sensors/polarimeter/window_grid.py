@@ -245,6 +245,7 @@ def interpolate_pixels(x, y, z, ca, n, basis, column, up_c, north_c, grid, row_c
         out[i, 1] = c2 * sq + s2 * su
         out[i, 2] = c2 * su - s2 * sq
 
+
 def band_stokes(
     grid: WindowGrid,
     band: NDArray[np.intp],
