@@ -20,6 +20,11 @@ chain's bit for bit (``tests/sensors/polarimeter/test_mosaic_kernel.py`` compare
   fma(λ, 1/K, fma(DSNU, 1/K, black)) (without DSNU, β = 0: fma(λ, 1/K, black)), rounded half to
   even and saturated to uint16.
 
+The photon-counting pixels (λ below ``POISSON_BELOW_E``, whose shot noise is drawn exactly) are
+found in one pass (:func:`low_counts`, ``np.flatnonzero`` of numpy's two comparisons) and get
+their counts plus read noise in another (:func:`set_counts`, numpy's float32 product and sum);
+the Poisson draws themselves stay numpy's, from the run's Generator.
+
 One difference, a fix: OpenCV rounds through int32 and turns a value past 2³¹ into 0. The ideal
 camera's sun can get there (K = 1 e⁻/DN, its auto exposure set by the sky), and read black;
 the loop saturates it.
@@ -78,6 +83,30 @@ def shot_and_read(lam, z, read_var):
     for k in range(lam.shape[0]):
         v = lam[k]
         lam[k] = fma32(np.float32(math.sqrt(v + read_var)), z[k], v)
+
+
+@njit(cache=True, error_model="numpy")
+def low_counts(lam, lo, hi, index):
+    """index[:n] = the k with lo ≤ λ[k] < hi, in order; returns n (``np.flatnonzero``'s).
+
+    The pixels whose shot noise is drawn exactly (Poisson): one pass where numpy's two
+    comparisons, their conjunction, ``any`` and ``flatnonzero`` made five.
+    """
+    n = 0
+    for k in range(lam.shape[0]):
+        v = lam[k]
+        if v >= lo and v < hi:
+            index[n] = k
+            n += 1
+    return n
+
+
+@njit(cache=True, error_model="numpy")
+def set_counts(lam, z, index, counts, read_e):
+    """λ[i] = counts + σ_read·z[i] at the Poisson pixels (float32, numpy's two operations)."""
+    for j in range(index.shape[0]):
+        i = index[j]
+        lam[i] = counts[j] + read_e * z[i]
 
 
 @njit(cache=True, error_model="numpy")
