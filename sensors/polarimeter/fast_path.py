@@ -74,7 +74,7 @@ _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in
 # share of the rays (below it the gather and scatter cost less than the evaluations saved).
 _SKY_SUBSET_BELOW = 0.5
 # The window grid (window_grid.py) gives the edge band's pixels inside the window from a coarse
-# stride of 8 px: at 2448×2048 a frame's light renders in 29 ms against 34.5 (63 787 rays
+# stride of 8 px: at 2448×2048 a frame's light renders in 28 ms against 34 (63 787 rays
 # against 136 070; benchmarks/results/polarimeter_frame.md, validation/results/fast_path_error.md),
 # its pixels within 0.2 % of S0 of the exact chain's. At stride 4 (612×512) its ~4 500 nodes
 # cost what the ~12 500 pixels they replace did (7.1 against 7.0 ms a frame, measured): there

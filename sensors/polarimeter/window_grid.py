@@ -227,7 +227,9 @@ def interpolate_pixels(x, y, z, ca, n, basis, column, up_c, north_c, grid, row_c
         si = m00 * v0 + m01 * v1 + v3
         sq = m01 * v0 + m00 * v1 + v4
         su = m22 * v2 + v5
-        # The lens's meridional mapping: the meridian → sensor rotation (chain_kernel's).
+        # The lens's meridional mapping: the meridian → sensor rotation, chain_points' written
+        # out with up's components held in registers and one division (chain_points' own,
+        # inlined here from a shared function, cost 13 ns a pixel more, measured interleaved).
         k = column[i]
         rx, ry, rz = basis[0, k], basis[1, k], basis[2, k]
         tx, ty, tz = basis[3, k], basis[4, k], basis[5, k]
