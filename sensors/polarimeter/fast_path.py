@@ -74,11 +74,12 @@ _SUN_BAND_CELLS = 9.0  # … and the forward-peaked aureole / phase function, in
 # share of the rays (below it the gather and scatter cost less than the evaluations saved).
 _SKY_SUBSET_BELOW = 0.5
 # The window grid (window_grid.py) gives the edge band's pixels inside the window from a coarse
-# stride of 8 px: at 2448×2048 a frame's light renders in 28 ms against 34 (63 787 rays
-# against 136 070; benchmarks/results/polarimeter_frame.md, validation/results/fast_path_error.md),
-# its pixels within 0.2 % of S0 of the exact chain's. At stride 4 (612×512) its ~4 500 nodes
-# cost what the ~12 500 pixels they replace did (7.1 against 7.0 ms a frame, measured): there
-# the band stays exact.
+# stride of 8 px: at 2448×2048 a frame's light renders in 28 ms against 34
+# (benchmarks/results/polarimeter_frame.md, level at 10 m); validation/results/fast_path_error.md's
+# tilted frame at 1 m takes 63 787 rays through the chain against 136 070, the grid's pixels
+# within 0.2 % of S0 of the exact chain's. At stride 4 (612×512) its ~4 500 nodes cost what the
+# ~12 500 pixels they replace did (7.1 against 7.0 ms a frame, measured): there the band stays
+# exact.
 _WINDOW_FROM_STRIDE = 8
 
 
@@ -250,7 +251,10 @@ class FastPath:
            pixel of a rough cell within the narrower bands (``_EDGE_EXACT_*``,
            ``_SUN_EXACT_CELLS``, the horizon's step, the border); the other rough cells (with
            :attr:`fine_level`) are interpolated from the fine grid, whose points the exact
-           chain renders; the smooth cells from the coarse grid.
+           chain renders; the smooth cells from the coarse grid. From a stride of
+           ``_WINDOW_FROM_STRIDE`` (with :attr:`window_grid`) the exact cells' pixels inside
+           the window's edge, away from the sun, the horizon's step and the border, take their
+           light from the (c_a, φ) grid of :mod:`~sensors.polarimeter.window_grid` instead.
         3. Snell's window mask: exact in the exact cells, elsewhere the nearest point's (an
            interpolated cell lies wholly on one side of the edge). Occluded pixels of
            interpolated cells lose the interpolated direct light (total − scattered at the

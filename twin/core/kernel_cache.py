@@ -23,7 +23,6 @@ installs first (``tests/test_kernel_cache.py`` holds every kernel module to it).
 from __future__ import annotations
 
 import hashlib
-import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -56,7 +55,7 @@ def digest() -> str:
 
 
 def _inside(py_file: str) -> bool:
-    p = Path(os.path.abspath(py_file))
+    p = Path(py_file).resolve()  # (the roots are resolved too: a checkout behind a link)
     return any(p.is_relative_to(r) for r in _ROOTS)
 
 
