@@ -53,7 +53,10 @@ MIN_COS_AIR = 0.01
 D_COS_AIR = 0.02
 
 
-#: Columns per coarse cell of arc along the window's edge.
+#: Columns per coarse cell of arc along the window's edge, chosen by measuring the band's error
+#: against the exact chain: one a cell gives 0.6 % of S0 at most at 2448×2048 (level 10 m), and
+#: at 612×512 1.2 % against 0.6 % with two a cell (nodes twice as many: the grid's node count is
+#: what it costs).
 COLUMNS_PER_CELL = 1.0
 
 #: The nodes are world directions: the chain renders them with C_c^n = I.
