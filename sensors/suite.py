@@ -12,9 +12,13 @@ import numpy as np
 from sensors.base import Sensor, WorldView
 from twin.core.messages import Reading
 
-# Tolerance when comparing a sample instant with the physics clock: sample times are k / rate and
-# the physics clock is n * dt; both carry float round-off.
-_EPS_S = 1e-9
+# The schedule is kept in physics steps, not seconds. MuJoCo's clock is a running sum of its
+# time step, whose round-off grows with the run (4e-10 s after 60 000 steps of 0.01 s, 1e-9 s
+# by about 1.5 h): compared with k / rate within a fixed tolerance in seconds, a sample instant
+# fell just outside it and a 10 Hz gauge sampled twice in a row, or a step late. The step index
+# round(t / dt) is exact while the round-off stays below half a step. Tolerance, in steps, of a
+# sample or delivery instant that falls on a step (k / rate in steps is a float product).
+_EPS_STEPS = 1e-6
 
 
 class SensorSuite:
@@ -22,7 +26,10 @@ class SensorSuite:
 
     A sensor with rate r samples at the first physics step at or after each k / r (k = 0, 1, ...),
     so a rate that does not divide the physics rate jitters by at most one physics step (a real
-    sensor's clock is not the simulator's either). Each sensor draws its noise from its own
+    sensor's clock is not the simulator's either); its reading is delivered at the first physics
+    step at or after its sampling instant plus its delay. The schedule counts physics steps
+    (``world.model.opt.timestep``), so that MuJoCo's clock, a running sum, cannot move a sample
+    however long the run. Each sensor draws its noise from its own
     Generator, spawned from ``seed`` in the order the sensors are given, so adding a sensor at the
     end does not change the others' noise.
 
@@ -39,8 +46,9 @@ class SensorSuite:
         self.sensors = list(sensors)
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._rngs = [np.random.default_rng(s) for s in ss.spawn(len(self.sensors))]
-        self._next_t = [0.0] * len(self.sensors)
-        self._pending: list[tuple[float, int, Reading, object]] = []
+        self._dt = 0.0
+        self._next_step = [0] * len(self.sensors)  # each sensor's next sampling step
+        self._pending: list[tuple[int, float, int, Reading, object]] = []
         self._counter = itertools.count()
 
     def __getitem__(self, name: str) -> Sensor:
@@ -53,8 +61,24 @@ class SensorSuite:
         """Start an episode: every sensor draws its turn-on errors; nothing pending."""
         for sensor, rng in zip(self.sensors, self._rngs, strict=True):
             sensor.reset(world, rng)
-        self._next_t = [math.ceil(world.t * s.rate_hz - _EPS_S) / s.rate_hz for s in self.sensors]
+        dt = float(world.model.opt.timestep)
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"the world's physics time step is {dt!r}; allowed: a finite dt > 0")
+        self._dt = dt
+        n = round(world.t / dt)
+        # The first instant k / rate at or after now, as a step.
+        self._next_step = [
+            self._step_of(math.ceil(n / self._steps_per_sample(s) - _EPS_STEPS), s)
+            for s in self.sensors
+        ]
         self._pending.clear()
+
+    def _steps_per_sample(self, sensor: Sensor) -> float:
+        return 1.0 / (sensor.rate_hz * self._dt)
+
+    def _step_of(self, k: int, sensor: Sensor) -> int:
+        """The first physics step at or after the sensor's k-th instant k / rate."""
+        return math.ceil(k * self._steps_per_sample(sensor) - _EPS_STEPS)
 
     def poll(self, world: WorldView) -> list[Reading]:
         """Sample the sensors that are due now; return readings delivered by now, oldest first."""
@@ -69,27 +93,30 @@ class SensorSuite:
         never look it up afterwards. None for sensors without.
         """
         t = world.t
-        next_t = self._next_t
+        n = round(t / self._dt)
+        next_step = self._next_step
         for i, sensor in enumerate(self.sensors):
-            if next_t[i] <= t + _EPS_S:
+            if next_step[i] <= n:
                 values = sensor.sample(world, self._rngs[i])
                 # A sensor whose clock is off the IMU's (a drawn polarimeter unit) stamps its
                 # reading with its own time; delivery stays on the physics clock.
                 stamp = t + getattr(sensor, "clock_offset_s", 0.0)
                 reading = Reading(sensor.name, stamp, t + sensor.delay_s, values)
                 truth = getattr(sensor, "truth", None)
+                # Delivered at the first step at or after t + delay; in the order of t + delay.
+                due = n + math.ceil(sensor.delay_s / self._dt - _EPS_STEPS)
                 heapq.heappush(
-                    self._pending, (reading.t_delivered, next(self._counter), reading, truth)
+                    self._pending, (due, reading.t_delivered, next(self._counter), reading, truth)
                 )
-                # Next instant k / rate after now (skipping any the physics clock jumped over),
-                # computed from k rather than accumulated, so it does not drift.
-                rate = sensor.rate_hz
-                next_t[i] = (math.floor(t * rate + _EPS_S) + 1) / rate
+                # The next instant k / rate after now (skipping any the physics clock jumped
+                # over), from k rather than accumulated, so that it does not drift.
+                k = math.floor(n / self._steps_per_sample(sensor) + _EPS_STEPS) + 1
+                next_step[i] = self._step_of(k, sensor)
         pending = self._pending
-        if not pending or pending[0][0] > t + _EPS_S:
+        if not pending or pending[0][0] > n:
             return []
         out: list[tuple[Reading, object]] = []
-        while pending and pending[0][0] <= t + _EPS_S:
-            _, _, reading, truth = heapq.heappop(pending)
+        while pending and pending[0][0] <= n:
+            _, _, _, reading, truth = heapq.heappop(pending)
             out.append((reading, truth))
         return out

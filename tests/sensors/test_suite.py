@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -82,3 +84,33 @@ def test_same_seed_same_readings_and_duplicate_names_rejected(world) -> None:
     assert not np.array_equal(values(8), values(9))
     with pytest.raises(ValueError, match="unique"):
         SensorSuite([registry.create("imu"), registry.create("imu")], seed=0)
+
+
+def test_a_long_run_on_mujocos_running_clock_keeps_every_rate(world) -> None:
+    """MuJoCo's clock is a running sum of dt: its round-off must not move a sample.
+
+    After ~27 000 steps of 0.01 s the sum lies 1e-10..1e-9 s below k·dt; scheduled in seconds
+    within 1e-9 s, a 10 Hz gauge sampled at both 269.50 and 269.51 s, and so on (9306 samples
+    in 600 s instead of 6001). Here each sensor samples once at each k / rate, at the step
+    nearest to it, and is delivered its delay later, for 600 s of that clock and beyond.
+    """
+    depth = registry.create("depth", "ms5837_30ba")  # 10 Hz, 0.04 s delay
+    slow = registry.create("depth", "ideal", rate_hz=30.0, name="depth_30hz")  # does not divide
+    suite = SensorSuite([depth, slow], seed=3)
+    world.set_time(0.0)
+    suite.reset(world)
+    t, steps, readings = 0.0, 60_000, []
+    for _ in range(steps + 1):
+        world.set_time(t)
+        readings.extend(suite.poll(world))
+        t += DT  # as mj_step advances data.time
+    assert abs(t - (steps + 1) * DT) > 1e-10  # the running clock did drift
+    for sensor, rate in ((depth, 10.0), (slow, 30.0)):
+        r = [x for x in readings if x.sensor == sensor.name]
+        k = np.arange(len(r))
+        stamps = np.array([x.t for x in r])
+        # One sample per instant k / rate that is delivered by the end (steps · dt).
+        assert len(r) == math.floor((steps * DT - sensor.delay_s) * rate + 1e-6) + 1
+        # Sampled at the first step at or after k / rate: within one step, never before it.
+        assert np.all(stamps >= k / rate - 1e-6) and np.all(stamps - k / rate < DT - 1e-6)
+        np.testing.assert_allclose([x.t_delivered - x.t for x in r], sensor.delay_s, atol=1e-9)
