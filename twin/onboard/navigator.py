@@ -40,7 +40,11 @@ from twin.onboard.gravity.matching import GravityMatcher, MatchResult, StoredMap
 from twin.onboard.imu_batch import ImuBatch, batchable, compiled_path
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
-#: The variant that uses no compass: INS aided by gravity and depth only.
+# When an instant is due on the IMU's clock (a gravity update's): MuJoCo's clock, which stamps the
+# samples, is a running sum of its time step and lies below n·dt by 4e-10 s after 600 s and by
+# ~1e-9 s after ~1.5 h, growing as t²; a 1e-9 s tolerance made every update a sample late from
+# there on. 1 µs holds for ~8 h of that clock and is far below any IMU's sampling interval.
+_DUE_TOL_S = 1e-6
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,6 +165,9 @@ class Navigator:
                     f"navigation aid for {sensor!r}: the filter fuses that sensor itself; an aid "
                     "takes an extra sensor's readings"
                 )
+        # The k-th gravity update is due at the first IMU sample at or after t0 + k / rate: the
+        # instant from k, not a running sum, and due within _DUE_TOL_S (module comment).
+        self._gravity_t0, self._gravity_k = init.t, 1
         self._next_gravity_t = init.t + 1.0 / self.config.gravity_rate_hz
         self._next_compass_t = init.t
         self.events: list[CompassEvent] = []
@@ -234,7 +241,7 @@ class Navigator:
                 or nav._batch is None
                 or reading.sensor != nav.knowledge.imu
                 or t <= nav._t_imu
-                or (nav.config.gravity_aiding and t >= nav._next_gravity_t - 1e-9)
+                or (nav.config.gravity_aiding and t >= nav._next_gravity_t - _DUE_TOL_S)
             ):
                 return False
         if not batchable(reading):
@@ -267,11 +274,14 @@ class Navigator:
             f.predict_reading(reading)
             self._t_imu = f.t
         self._rate_b = reading["angular_rate"]  # kept as is: converted only when a fix needs it
-        if self.config.gravity_aiding and self._t_imu >= self._next_gravity_t - 1e-9:
+        if self.config.gravity_aiding and self._t_imu >= self._next_gravity_t - _DUE_TOL_S:
             self._flush()
-            if f.t >= self._next_gravity_t - 1e-9:
+            if f.t >= self._next_gravity_t - _DUE_TOL_S:
                 f.update_gravity()
-                self._next_gravity_t += 1.0 / self.config.gravity_rate_hz
+                self._gravity_k += 1
+                self._next_gravity_t = (
+                    self._gravity_t0 + self._gravity_k / self.config.gravity_rate_hz
+                )
 
     def _compass(self, reading: Reading) -> CompassEvent:
         assert self.method is not None and self.knowledge.calibration is not None
