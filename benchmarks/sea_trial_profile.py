@@ -287,7 +287,7 @@ def main() -> int:
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "sea_trial_profile.md").write_text("\n".join(md) + "\n")
     (RESULTS / "sea_trial_profile.json").write_text(
-        json.dumps({"meta": meta, "row": row}, indent=2) + "\n"
+        json.dumps({"meta": meta, "row": row, "limit": limit(row)}, indent=2) + "\n"
     )
     print("\n".join(md))
     return 0
@@ -381,7 +381,7 @@ def _report(row: dict[str, Any], meta: dict[str, Any]) -> list[str]:
         "between them, the readings, the scheduling, scoring and guidance, one step at a time.",
     ]
     md += _step_kinds(row, sim_s)
-    md += _limit(row, flight, sim_s, frames)
+    md += _limit(limit(row))
     n_rays = row.get("chain_rays")
     chain = st.get("compiled chain (scattering kernel, sky, Fresnel, lens)", 0.0)
     if n_rays:
@@ -424,8 +424,15 @@ def _step_kinds(row: dict[str, Any], sim_s: float) -> list[str]:
     return md
 
 
-def _limit(row: dict[str, Any], flight: float, sim_s: float, frames: int) -> list[str]:
-    """The flight's compiled and C work alone: what no rewrite of the Python around it removes."""
+def limit(row: dict[str, Any]) -> dict[str, Any]:
+    """The flight's compiled and C work alone: what no rewrite of the Python around it removes.
+
+    Each part (the frame, the compass, the 100 Hz loop) whole and its compiled and C work (the
+    stages that time kernels, MuJoCo and OpenCV, each call less the timer's own measured cost),
+    in seconds of the flight; the flight's compiled work with and without numba's dispatch; and
+    the real-time factors those allow. Stored in the results (``"limit"``) for the report and
+    the validation page.
+    """
     st, calls = row["stages_s"], row["calls"]
     w, dispatch = row.get("wrapper_s", 0.0), row.get("dispatch_s", 0.0)
 
@@ -437,51 +444,81 @@ def _limit(row: dict[str, Any], flight: float, sim_s: float, frames: int) -> lis
         "the compass": (_COMPASS_K, _CV_COMPASS),
         "the 100 Hz loop": LOOP_CORES,
     }
-    totals = {
+    flight, sim_s = row["flight_s"], row["sim_s"]
+    whole = {
         "the frame": st.get("polarimeter frame", 0.0),
         "the compass": st.get("compass frames (ephemeris, method, sun update)", 0.0),
     }
-    totals["the 100 Hz loop"] = flight - sum(totals.values())
-    md = [
-        "",
-        "## The limit: the compiled and C work alone",
-        "",
-        "What the flight spends inside compiled kernels (numba), MuJoCo and OpenCV, each call "
-        f"less the timer's own cost ({1e9 * w:.0f} ns a call, measured in the same process on "
-        "a wrapped no-op). The rest of each part is Python and numpy between those calls.",
-        "",
-        "| part | the whole, ms per sim. s | compiled and C work, ms per sim. s | of it |",
-        "|---|---|---|---|",
-    ]
-    compiled = 0.0
-    for part, labels in groups.items():
-        c = sum(net(label) for label in labels)
-        compiled += c
-        md.append(
-            f"| {part} | {1e3 * totals[part] / sim_s:.1f} | {1e3 * c / sim_s:.1f} | "
-            + ", ".join(f"{label} {1e3 * net(label) / sim_s:.2f}" for label in labels)
-            + " |"
-        )
-    md.append(
-        f"| **the flight** | {1e3 * flight / sim_s:.1f} | **{1e3 * compiled / sim_s:.1f}** | |"
-    )
+    whole["the 100 Hz loop"] = flight - sum(whole.values())
+    parts = {
+        part: {
+            "whole_s": whole[part],
+            "compiled_s": sum(net(x) for x in labels),
+            "of_it_s": {x: net(x) for x in labels},
+        }
+        for part, labels in groups.items()
+    }
+    compiled = sum(p["compiled_s"] for p in parts.values())
     # numba's dispatch is in those rows: a loop compiled whole would not pay it.
     kernel_calls = sum(
         calls.get(x, 0) for x in (_CHAIN_K, _FRAME_K, _COMPASS_K, _WRENCH, _IMU_K, _FILTER_K)
     )
     bare = max(compiled - kernel_calls * dispatch, 1e-9)
-    frame_c = sum(net(x) for x in groups["the frame"])
+    return {
+        "sim_s": sim_s,
+        "flight_s": flight,
+        "parts": parts,
+        "compiled_s": compiled,
+        "kernel_calls": kernel_calls,
+        "wrapper_ns": 1e9 * w,
+        "dispatch_ns": 1e9 * dispatch,
+        "compiled_less_dispatch_s": bare,
+        "measured_rtf": sim_s / flight,
+        "ceiling_rtf": sim_s / compiled,
+        "ceiling_less_dispatch_rtf": sim_s / bare,
+        "chain_kernel_ms_per_frame": 1e3 * net(_CHAIN_K) / max(row["frames"], 1),
+    }
+
+
+def _limit(lim: dict[str, Any]) -> list[str]:
+    """:func:`limit` in words and a table."""
+    sim_s = lim["sim_s"]
+    md = [
+        "",
+        "## The limit: the compiled and C work alone",
+        "",
+        "What the flight spends inside compiled kernels (numba), MuJoCo and OpenCV, each call "
+        f"less the timer's own cost ({lim['wrapper_ns']:.0f} ns a call, measured in the same "
+        "process on a wrapped no-op). The rest of each part is Python and numpy between those "
+        "calls.",
+        "",
+        "| part | the whole, ms per sim. s | compiled and C work, ms per sim. s | of it |",
+        "|---|---|---|---|",
+    ]
+    for part, p in lim["parts"].items():
+        md.append(
+            f"| {part} | {1e3 * p['whole_s'] / sim_s:.1f} | {1e3 * p['compiled_s'] / sim_s:.1f} | "
+            + ", ".join(f"{x} {1e3 * v / sim_s:.2f}" for x, v in p["of_it_s"].items())
+            + " |"
+        )
+    md.append(
+        f"| **the flight** | {1e3 * lim['flight_s'] / sim_s:.1f} | "
+        f"**{1e3 * lim['compiled_s'] / sim_s:.1f}** | |"
+    )
+    frame_c = lim["parts"]["the frame"]["compiled_s"]
     md += [
         "",
         f"With every line of Python and numpy between those calls free, the flight would still "
-        f"take {compiled:.2f} s for {sim_s:.0f} s: **at most {sim_s / compiled:.0f}× real "
-        f"time** on this core, against the {sim_s / flight:.1f}× measured. Less numba's own "
-        f"dispatch too ({1e9 * dispatch:.0f} ns a call, an eight-array no-op's, × "
-        f"{kernel_calls:,} kernel calls), which only a loop compiled whole would not pay: "
-        f"{bare:.2f} s, at most {sim_s / bare:.0f}×. Issue #31's 100× needs 10 ms per "
-        f"simulated second in all; the frame's compiled work alone is "
-        f"{1e3 * frame_c / sim_s:.1f} ms of it, the exact chain's kernel "
-        f"{1e3 * net(_CHAIN_K) / frames:.1f} ms a frame against the frame's 3 ms target.",
+        f"take {lim['compiled_s']:.2f} s for {sim_s:.0f} s: **at most "
+        f"{lim['ceiling_rtf']:.0f}× real time** on this core, against the "
+        f"{lim['measured_rtf']:.1f}× measured. Less numba's own dispatch too "
+        f"({lim['dispatch_ns']:.0f} ns a call, an eight-array no-op's, × "
+        f"{lim['kernel_calls']:,} kernel calls), which only a loop compiled whole would not pay: "
+        f"{lim['compiled_less_dispatch_s']:.2f} s, at most "
+        f"{lim['ceiling_less_dispatch_rtf']:.0f}×. Issue #31's 100× needs 10 ms per simulated "
+        f"second in all; the frame's compiled work alone is {1e3 * frame_c / sim_s:.1f} ms of "
+        f"it, the exact chain's kernel {lim['chain_kernel_ms_per_frame']:.1f} ms a frame against "
+        "the frame's 3 ms target.",
     ]
     return md
 

@@ -275,6 +275,13 @@ CLAIMS = (
         n.sea_trial_rtf,
     ),
     Claim(
+        "What one core allows the sea trial: its compiled and C work alone",
+        "Every compiled kernel, MuJoCo and OpenCV call of the 10-minute trial timed in one run, "
+        "each less its timer's measured cost; the rest is Python and numpy between the calls.",
+        ("benchmarks/results/sea_trial_profile.json",),
+        n.sea_trial_limit,
+    ),
+    Claim(
         "Campaign throughput, 2 cores",
         "Runs a minute on the local pool and on Ray with one and two workers.",
         ("benchmarks/results/campaign_throughput.json",),

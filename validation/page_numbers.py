@@ -472,6 +472,29 @@ def sea_trial_rtf(r: Results) -> list[str]:
     ]
 
 
+def sea_trial_limit(r: Results) -> list[str]:
+    d = r.json("benchmarks/results/sea_trial_profile.json")
+    lim = d.get("limit")
+    if lim is None:
+        return ["Not measured: this profile predates the limit (run the profile again)."]
+    sim = lim["sim_s"]
+    rows = [
+        [part, f"{1e3 * p['whole_s'] / sim:.1f}", f"{1e3 * p['compiled_s'] / sim:.1f}"]
+        for part, p in lim["parts"].items()
+    ]
+    rows.append(
+        ["the flight", f"{1e3 * lim['flight_s'] / sim:.1f}", f"{1e3 * lim['compiled_s'] / sim:.1f}"]
+    )
+    return [
+        *md_table(["part", "whole, ms per simulated s", "compiled and C work alone"], rows),
+        "",
+        f"Measured {lim['measured_rtf']:.1f}× real time (the profile's timers in); the compiled "
+        f"and C work alone allows at most {lim['ceiling_rtf']:.0f}× "
+        f"({lim['ceiling_less_dispatch_rtf']:.0f}× without numba's dispatch). Issue #31's "
+        "target: 100×.",
+    ]
+
+
 def throughput(r: Results) -> list[str]:
     d = r.json("benchmarks/results/campaign_throughput.json")
     rows = [

@@ -221,7 +221,9 @@ class AuvEnv(dm_env.Environment):
             if termination == 0.0:
                 return dm_env.termination(reward, obs)
             return dm_env.truncation(reward, obs, discount=float(termination))
-        if w.plant.t >= self._scenario.duration_s - 1e-9:
+        # Half a physics step of tolerance: MuJoCo's clock is a running sum of dt that lags
+        # n·dt by more than 1e-9 s in a long episode (sensors/suite.py).
+        if w.plant.t >= self._scenario.duration_s - 0.5 * w.physics_dt:
             self._needs_reset = True
             return dm_env.truncation(reward, obs)
         return dm_env.transition(reward, obs)

@@ -265,7 +265,8 @@ class AuvGymEnv(gym.Env):
         ts = self._env.step(np.asarray(action, dtype=np.float64))
         last = ts.last()
         # A last step with discount 1 before the scenario's end is the task's success.
-        before_end = self._env.world.plant.t < self._scenario.duration_s - 1e-9
+        world = self._env.world  # half a step of tolerance on MuJoCo's running clock (env.py)
+        before_end = world.plant.t < self._scenario.duration_s - 0.5 * world.physics_dt
         success = bool(last and ts.discount == 1.0 and before_end)
         terminated = bool(last and (ts.discount == 0.0 or success))
         truncated = bool(last and not terminated)
