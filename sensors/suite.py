@@ -13,9 +13,10 @@ from sensors.base import Sensor, WorldView
 from twin.core.messages import Reading
 
 # The schedule is kept in physics steps, not seconds. MuJoCo's clock is a running sum of its
-# time step, whose round-off grows with the run (4e-10 s after 60 000 steps of 0.01 s, 1e-9 s
-# by about 1.5 h): compared with k / rate within a fixed tolerance in seconds, a sample instant
-# fell just outside it and a 10 Hz gauge sampled twice in a row, or a step late. The step index
+# time step, whose round-off grows about as t² (steps of 0.01 s: 4e-10 s off n·dt at 600 s,
+# 1.2e-9 at 1500 s, 3e-7 at 16 000 s, either side): compared with k / rate within a fixed 1e-9
+# in seconds (and 1e-9 in counts for the next instant), a 10 Hz gauge sampled twice in a row
+# while the clock lagged by 1e-10..1e-9 s and a step late past that. The step index
 # round(t / dt) is exact while the round-off stays below half a step. Tolerance, in steps, of a
 # sample or delivery instant that falls on a step (k / rate in steps is a float product).
 _EPS_STEPS = 1e-6

@@ -41,9 +41,10 @@ from twin.onboard.imu_batch import ImuBatch, batchable, compiled_path
 from twin.onboard.ins import NavState, rotvec_to_dcm
 
 # When an instant is due on the IMU's clock (a gravity update's): MuJoCo's clock, which stamps the
-# samples, is a running sum of its time step and lies below n·dt by 4e-10 s after 600 s and by
-# ~1e-9 s after ~1.5 h, growing as t²; a 1e-9 s tolerance made every update a sample late from
-# there on. 1 µs holds for ~8 h of that clock and is far below any IMU's sampling interval.
+# samples, is a running sum of its time step, off n·dt by about t² · 2e-15 s (steps of 0.01 s:
+# 1.2e-9 s behind at 1500 s, 3e-7 ahead at 16 000 s, 1.9e-6 behind at 30 000 s); with 1e-9 s
+# an update came a sample late whenever the clock lagged by more. 1 µs holds for about 6 h of
+# simulated time (sensors/suite.py counts steps instead) and is far below any IMU's interval.
 _DUE_TOL_S = 1e-6
 
 
