@@ -39,8 +39,9 @@ _WRENCH = "the wrench and added-mass kernel"
 _IMU_K = "the IMU's kernel"
 _FILTER_K = "the filters' kernels (INS batches, covariance steps, updates)"
 _CHAIN_K = "its kernel (chain_points)"
-_FRAME_K = "compiled kernels and MuJoCo's ray casts, but the chain"
-_COMPASS_K = "the methods' compiled kernels"
+# The frame's and the compass's compiled work, for the limit: each lies within the rows above it.
+_FRAME_K = "its compiled kernels but the chain's, and MuJoCo's ray casts (within the rows above)"
+_COMPASS_K = "their compiled kernels"
 STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     ("physics step", "", "twin.world.plant", "Plant", "step", "step"),
     ("sensors due (IMU, depth, camera …)", "", "sensors.suite", "SensorSuite",
@@ -111,7 +112,8 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
 )  # fmt: skip
 LOOP_CORES = (_MJ, _WRENCH, _IMU_K, _FILTER_K)
 # OpenCV's calls, charged to the frame or the compass by where they are made.
-_CV_FRAME, _CV_COMPASS = "OpenCV in the frame", "OpenCV in the compass"
+_CV_FRAME = "its OpenCV calls (within the rows above)"
+_CV_COMPASS = "their OpenCV calls"
 EXTRA = ((_CV_FRAME, "polarimeter frame"), (_CV_COMPASS, "compass methods (POL, LIG)"))
 
 _CHILD = (
