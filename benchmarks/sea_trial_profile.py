@@ -11,6 +11,11 @@ cores (MuJoCo's step, the wrench, IMU and filter kernels) are timed too, each ro
 that calls it (the filters' kernels overlap the filter rows beside them): what the loop costs
 beyond them is the Python between them. Their wrappers add ~0.6 ms per simulated second.
 
+Two more sections: the steps sorted by what they carry (their readings, and whether the filters
+made gravity updates in them), each timed whole; and the limit (:func:`limit`): every compiled
+kernel, MuJoCo and OpenCV call of the flight, less the timer's measured cost, summed per part,
+and the real-time factor that work alone would allow with no Python at all.
+
     python benchmarks/sea_trial_profile.py [--mission-s 600]
 
 Writes benchmarks/results/sea_trial_profile.{json,md}.
@@ -89,9 +94,10 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     (_FILTER_K, "readings to the filters", "twin.onboard.eskf_kernels", "", "update", "step"),
     (_CHAIN_K, "compiled chain (scattering kernel, sky, Fresnel, lens)",
      "sensors.polarimeter.chain_kernel", "", "chain_points", "frame"),
-    # The frame's and the compass's compiled and C work, for the limit (``_limit``): every
+    # The frame's and the compass's compiled and C work, for the limit (:func:`limit`): every
     # compiled kernel the frame and the compass call from Python, and MuJoCo's ray casts
-    # (OpenCV's calls are timed by _CV2_TIMER, charged to the frame or the compass).
+    # (OpenCV's calls are timed in the child by ``cv_timed``, charged to the frame or the
+    # compass).
     (_FRAME_K, "polarimeter frame", "sensors.polarimeter.occlusion", "mujoco", "mj_multiRay",
      "frame"),
     (_FRAME_K, "polarimeter frame", "sensors.polarimeter.pixel_kernel", "", "gather_columns",
@@ -165,23 +171,25 @@ def cv_timed(fn):
     return timed
 for name in a["cv2"]:
     setattr(cv2, name, cv_timed(getattr(cv2, name)))
+# One call's time, best of 5 rounds of n (for the timer's and numba's own costs below).
+def _per_call(f, args, n=200000):
+    f(*args)
+    best = float("inf")
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(n):
+            f(*args)
+        best = min(best, (time.perf_counter() - t0) / n)
+    return best
 # What a wrapper costs a call (the timer's own time and its call), to take out of the cores'
-# sums: a wrapped no-op against the bare one, best of 5.
+# sums: a wrapped no-op against the bare one.
 def _noop(*x, **k):
     return None
 class _Probe:
     noop = staticmethod(_noop)
 probe_acc, probe_calls = collections.defaultdict(float), collections.Counter()
 wrap_timer(_Probe, "noop", "probe", probe_acc, probe_calls)
-def _per_call(f, n=200000):
-    best = float("inf")
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            f(1, 2, 3)
-        best = min(best, (time.perf_counter() - t0) / n)
-    return best
-wrapper_s = max(_per_call(_Probe.noop) - _per_call(_noop), 0.0)
+wrapper_s = max(_per_call(_Probe.noop, (1, 2, 3)) - _per_call(_noop, (1, 2, 3)), 0.0)
 # Rays through the exact chain (the fast path's coarse points, fine points and exact pixels).
 from sensors.polarimeter import chain_kernel
 rays = [0]
@@ -224,24 +232,17 @@ with tempfile.TemporaryDirectory() as d:
     m = run_scenario(sc, d, camera=False, record=False)
     wall = time.perf_counter() - t0
 # numba's own dispatch (matching the arguments' types), which a compiled loop would not pay:
-# an 8-array-argument no-op against the Python one, best of 5.
+# an 8-array-argument no-op against the Python one.
 import numba, numpy as np
 @numba.njit
 def _kernel_noop(a, b, c, d, e, f, g, h):
     return 0.0
 def _py_noop(a, b, c, d, e, f, g, h):
     return 0.0
-arrays = [np.zeros(6) for _ in range(8)]
-def _per_call8(f, n=100000):
-    best = float("inf")
-    f(*arrays)
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            f(*arrays)
-        best = min(best, (time.perf_counter() - t0) / n)
-    return best
-dispatch_s = max(_per_call8(_kernel_noop) - _per_call8(_py_noop), 0.0)
+arrays = tuple(np.zeros(6) for _ in range(8))
+dispatch_s = max(
+    _per_call(_kernel_noop, arrays, 100000) - _per_call(_py_noop, arrays, 100000), 0.0
+)
 flight = {k: v - first["stages_after_first"].get(k, 0.0) for k, v in acc.items()}
 ncalls = {k: v - first["calls_after_first"].get(k, 0) for k, v in calls.items()}
 print(json.dumps({"imports_s": t_imported - t_start, "run_s": wall,
