@@ -38,3 +38,38 @@ def test_aop_and_dop_pictures_are_opencvs_colour_maps_byte_for_byte(masked: bool
     # A cyclic map: −90° and +90° are the same E-vector, one colour.
     ends = images.aop_rgb(np.array([[-math.pi / 2, math.pi / 2 - 1e-6]], dtype=np.float32))
     assert np.abs(ends[0, 0].astype(int) - ends[0, 1].astype(int)).max() <= 3
+
+
+def _arrays(rng: np.random.Generator) -> list[np.ndarray]:
+    """Arrays of the shapes a frame's S0 has, and the ones that break a shortcut."""
+    frame = rng.uniform(0, 3000, (256, 306)).astype(np.float32)
+    frame[100:110, 150:160] = 4095.0  # a saturated sun disc: ties at the top
+    return [
+        frame,
+        np.exp(rng.normal(0, 3, 78_336)).astype(np.float32),  # a long bright tail
+        rng.integers(0, 40, 20_000).astype(np.float32),  # many ties
+        np.full(9_000, 7.0, np.float32),  # constant
+        np.sort(rng.uniform(size=50_000)).astype(np.float32),  # sorted: a stride sees one end
+        np.sort(rng.uniform(size=50_000))[::-1].astype(np.float32),
+        rng.normal(size=30_000),  # float64
+        rng.uniform(size=500).astype(np.float32),  # small: numpy's own path
+        np.where(rng.uniform(size=10_000) < 0.01, np.nan, 1.0).astype(np.float32),  # NaN
+    ]
+
+
+@pytest.mark.parametrize("q", [0.0, 50.0, 95.0, 99.0, 99.5, 99.99, 100.0])
+def test_percentile_of_is_numpys_percentile_bit_for_bit(q: float) -> None:
+    rng = np.random.default_rng(11)
+    for a in _arrays(rng):
+        mine, numpys = images.percentile_of(a, q), float(np.percentile(a, q))
+        assert mine == numpys or (math.isnan(mine) and math.isnan(numpys)), (a.dtype, a.size, q)
+
+
+def test_intensity_picture_scales_to_the_percentile() -> None:
+    rng = np.random.default_rng(5)
+    s0 = rng.uniform(0, 3000, (256, 306)).astype(np.float32)
+    top = float(np.percentile(s0, 99.5))
+    img = images.intensity_u8(s0)
+    expected = (np.clip(s0 / top, 0.0, 1.0) ** (1.0 / 2.2) * 255.0 + 0.5).astype(np.uint8)
+    np.testing.assert_array_equal(img, expected)
+    assert (img[s0 >= top] == 255).all() and img[s0 < 0.5 * top].max() < 255

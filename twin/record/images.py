@@ -28,11 +28,47 @@ def intensity_u8(
     """
     s = np.asarray(s0, dtype=np.float32)
     if top is None:
-        top = float(np.percentile(s, percentile)) if s.size else 0.0
+        top = percentile_of(s, percentile) if s.size else 0.0
     if not (math.isfinite(top) and top > 0):
         return np.zeros(s.shape, dtype=np.uint8)
     x = np.clip(s / top, 0.0, 1.0) ** (1.0 / 2.2)
     return (x * 255.0 + 0.5).astype(np.uint8)
+
+
+def percentile_of(a: NDArray[np.floating], q: float) -> float:
+    """``np.percentile(a, q)`` (its default, linear method), the same number, for less when q is high.
+
+    ``np.percentile`` partitions the whole array (0.7 ms for a 306×256 S0), yet the two order
+    statistics it interpolates between lie in the top (100 − q) %. A threshold taken from a
+    sixteenth of the pixels keeps a superset of them (about twice as many values as needed); the
+    rest are all below it, so the order statistics keep their ranks, shifted by how many were
+    dropped. The interpolation is numpy's own, operation for operation (``tests/test_images.py``
+    holds it to ``np.percentile`` bit for bit); any array this does not suit (small, non-finite,
+    a threshold that keeps too few) goes to ``np.percentile`` itself.
+    """
+    flat = np.ravel(a)
+    n = flat.size
+    qq = q / 100.0
+    # numpy's virtual index for 'linear' (Hyndman & Fan's 7th: alpha = beta = 1), in its order.
+    vi = n * qq + (1.0 + qq * (1.0 - 1.0 - 1.0)) - 1.0
+    lo = math.floor(vi) if math.isfinite(vi) else -1
+    if n < 4096 or not 0 <= lo < n - 1 or not math.isfinite(float(flat.sum())):
+        return float(np.percentile(flat, q))
+    need = n - lo  # the values at rank lo and above
+    sample = flat[::16]
+    k = len(sample) - 1 - min(len(sample) - 1, 2 * (need // 16) + 32)
+    threshold = np.partition(sample, k)[k]
+    candidates = flat[flat >= threshold]
+    r = lo - (n - candidates.size)  # rank lo among the candidates
+    if r < 0:
+        return float(np.percentile(flat, q))
+    part = np.partition(candidates, (r, r + 1))
+    below, above = part[r], part[r + 1]
+    gamma = vi - lo
+    diff = above - below  # numpy's _lerp, in the array's dtype
+    if gamma >= 0.5:
+        return float(above - diff * (1 - gamma))
+    return float(below + diff * gamma)
 
 
 @functools.cache
