@@ -7,12 +7,14 @@ entry point. Stages nest (the frame holds its fast path, the fast path its compi
 wrapper costs ~1 µs a call, ~0.4 s over the 60 000 steps, which the table's "unaccounted" row
 shows with the loop's own scheduling. Start-up (imports, building the simulation, the first
 frame's tables and kernels) is timed apart from the flight. The 100 Hz loop's compiled and C
-cores (MuJoCo's step, the wrench, IMU and filter kernels) are timed too, each row under the stage
-that calls it (the filters' kernels overlap the filter rows beside them): what the loop costs
-beyond them is the Python between them. Their wrappers add ~0.6 ms per simulated second.
+cores (MuJoCo's step, the wrench, IMU and filter kernels, and the kernel that flies the quiet
+steps, those with the IMU's sample alone, in blocks: ``twin/world/quiet_steps.py``) are timed
+too, each row under the stage that calls it (the filters' kernels overlap the filter rows beside
+them): what the loop costs beyond them is the Python between them. Their wrappers add ~0.6 ms
+per simulated second.
 
 Two more sections: the steps sorted by what they carry (their readings, and whether the filters
-made gravity updates in them), each timed whole; and the limit (:func:`limit`): every compiled
+made gravity updates in them), each timed whole, the quiet steps by the block; and the limit (:func:`limit`): every compiled
 kernel, MuJoCo and OpenCV call of the flight, less the timer's measured cost, summed per part,
 and the real-time factor that work alone would allow with no Python at all.
 
@@ -44,11 +46,20 @@ _WRENCH = "the wrench and added-mass kernel"
 _IMU_K = "the IMU's kernel"
 _FILTER_K = "the filters' kernels (INS batches, covariance steps, updates)"
 _CHAIN_K = "its kernel (chain_points)"
+_QUIET = "quiet steps in compiled blocks (physics + IMU; looked for, flown, handed on)"
+_QUIET_FLY = "flying a block"
+_QUIET_K = "its kernel (MuJoCo, the limiter, the wrench, the IMU)"
 # The frame's and the compass's compiled work, for the limit: each lies within the rows above it.
 _FRAME_K = "its compiled kernels but the chain's, and MuJoCo's ray casts (within the rows above)"
 _COMPASS_K = "their compiled kernels"
 STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     ("physics step", "", "twin.world.plant", "Plant", "step", "step"),
+    (_QUIET, "", "twin.sim.step", "Simulation", "_fly_quiet", "step"),
+    ("looking for quiet steps", _QUIET, "twin.world.quiet_steps", "QuietSteps", "times", "step"),
+    (_QUIET_FLY, _QUIET, "twin.world.quiet_steps", "QuietSteps", "fly", "step"),
+    (_QUIET_K, _QUIET_FLY, "twin.world.quiet_steps_kernel", "", "fly", "step"),
+    ("their samples to the filters' batches", _QUIET, "twin.onboard.navigator", "Navigator",
+     "fan_out_imu_block", "step"),
     ("sensors due (IMU, depth, camera …)", "", "sensors.suite", "SensorSuite",
      "poll_with_truth", "step"),
     ("IMU model", "sensors due (IMU, depth, camera …)", "sensors.imu", "Imu", "sample", "step"),
@@ -116,7 +127,7 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
       for name in ("window_masks", "window_sides", "pol_moments", "lig_moments")),
     (_COMPASS_K, "compass methods (POL, LIG)", "twin.onboard.lens", "", "undo_at", "method"),
 )  # fmt: skip
-LOOP_CORES = (_MJ, _WRENCH, _IMU_K, _FILTER_K)
+LOOP_CORES = (_MJ, _WRENCH, _IMU_K, _QUIET_K, _FILTER_K)
 # OpenCV's calls, charged to the frame or the compass by where they are made.
 _CV_FRAME = "its OpenCV calls (within the rows above)"
 _CV_COMPASS = "their OpenCV calls"
@@ -223,6 +234,17 @@ def step(self, cmd, _orig=orig_step):
     return r
 kinds_s, kinds_n = collections.defaultdict(float), collections.Counter()
 step_mod.Simulation.step = step
+# A block of quiet steps (Simulation.advance), timed whole (its samples handed on to the filters
+# and the scorer), counted by its steps; a look that found none is in the stage table.
+orig_quiet = step_mod.Simulation._fly_quiet
+def fly_quiet(self, cmd, most, _orig=orig_quiet):
+    t0 = time.perf_counter()
+    n = _orig(self, cmd, most)
+    if n:
+        kinds_s["imu, in a compiled block of quiet steps"] += time.perf_counter() - t0
+        kinds_n["imu, in a compiled block of quiet steps"] += n
+    return n
+step_mod.Simulation._fly_quiet = fly_quiet
 sc = scenarios.load("sea_trial_10m")
 mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
 sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
@@ -250,7 +272,8 @@ print(json.dumps({"imports_s": t_imported - t_start, "run_s": wall,
                   "flight_s": wall - (first["t0"] - t0) - first["first_step_s"],
                   "stages_s": flight, "calls": ncalls,
                   "sim_s": m["sim_time_s"], "frames": m["sensor_readings"].get("polarimeter", 0),
-                  "steps": ncalls["physics step"], "wrapper_s": wrapper_s,
+                  "steps": ncalls["physics step"] + kinds_n["imu, in a compiled block of quiet steps"],
+                  "wrapper_s": wrapper_s,
                   "dispatch_s": dispatch_s, "step_kinds_s": kinds_s, "step_kinds_n": kinds_n,
                   "chain_rays": rays[0] - first["rays_after_first"]}))
 """
@@ -381,7 +404,8 @@ def _report(row: dict[str, Any], meta: dict[str, Any]) -> list[str]:
         f"C cores take {1e3 * sum(cores.values()) / sim_s:.1f} ("
         + ", ".join(f"{label} {1e3 * v / sim_s:.1f}" for label, v in cores.items())
         + "; each timed by the same ~1 µs wrapper, counted in). The rest is Python: the calls "
-        "between them, the readings, the scheduling, scoring and guidance, one step at a time.",
+        "between them, the readings, the scheduling, scoring and guidance, a step or a block of "
+        "quiet steps at a time.",
     ]
     md += _step_kinds(row, sim_s)
     md += _limit(limit(row))
@@ -410,7 +434,8 @@ def _step_kinds(row: dict[str, Any], sim_s: float) -> list[str]:
         "",
         "Each step after the first timed whole (physics, sensors, the filters, the scorer; not "
         "the autopilot, above), by its readings and whether the filters made their gravity "
-        "updates in it (the 10 Hz instants, where the scorer also samples truth); the stage "
+        "updates in it (the 10 Hz instants, where the scorer also samples truth), and the quiet "
+        "steps flown in compiled blocks (each block timed whole, shared by its steps); the stage "
         f"timers inside are counted in ({1e9 * row.get('wrapper_s', 0.0):.0f} ns each, about "
         "ten in a step that carries the IMU's sample alone):",
         "",
@@ -464,7 +489,8 @@ def limit(row: dict[str, Any]) -> dict[str, Any]:
     compiled = sum(p["compiled_s"] for p in parts.values())
     # numba's dispatch is in those rows: a loop compiled whole would not pay it.
     kernel_calls = sum(
-        calls.get(x, 0) for x in (_CHAIN_K, _FRAME_K, _COMPASS_K, _WRENCH, _IMU_K, _FILTER_K)
+        calls.get(x, 0)
+        for x in (_CHAIN_K, _FRAME_K, _COMPASS_K, _WRENCH, _IMU_K, _QUIET_K, _FILTER_K)
     )
     bare = max(compiled - kernel_calls * dispatch, 1e-9)
     return {

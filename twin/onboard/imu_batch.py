@@ -95,6 +95,25 @@ class ImuBatch:
         self._fs[k] = reading.values["specific_force"]
         self.readings.append(reading)
 
+    def add_block(self, readings: list[Reading], ts: list[float], samples: np.ndarray) -> None:
+        """:meth:`add` of each reading in turn, their channels given as rows of ``samples``.
+
+        Args:
+            readings: The IMU readings (:func:`batchable`), in time order.
+            ts: Their stamps.
+            samples: (n, 6) [angular_rate, specific_force] of each, copied in.
+        """
+        k, n = len(self.readings), len(readings)
+        while k + n > self._ts.shape[0]:
+            m = self._ts.shape[0]
+            self._ts = np.concatenate((self._ts, np.empty(m)))
+            self._ws = np.concatenate((self._ws, np.empty((m, 3))))
+            self._fs = np.concatenate((self._fs, np.empty((m, 3))))
+        self._ts[k : k + n] = ts
+        self._ws[k : k + n] = samples[:, 0:3]
+        self._fs[k : k + n] = samples[:, 3:6]
+        self.readings.extend(readings)
+
     def flush(self) -> None:
         """Integrate every kept sample, in order, as :meth:`Eskf.predict_reading` would."""
         readings = self.readings

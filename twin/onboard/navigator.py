@@ -254,6 +254,56 @@ class Navigator:
             nav._rate_b = rate
         return True
 
+    @staticmethod
+    def quiet_imu_steps(navigators: Iterable[Navigator], sensor: str, times: list[float]) -> int:
+        """How many of the IMU samples at ``times`` every navigator would only keep.
+
+        :meth:`fan_out_imu`'s conditions, for a block of samples (:meth:`fan_out_imu_block`):
+        the built-in navigator with a batch for this IMU, samples after its INS's time, and
+        before its next gravity update.
+        """
+        n = len(times)
+        for nav in navigators:
+            if (
+                type(nav).on_reading is not Navigator.on_reading
+                or type(nav)._on_imu is not Navigator._on_imu
+                or nav._batch is None
+                or sensor != nav.knowledge.imu
+                or not times
+                or times[0] <= nav._t_imu
+            ):
+                return 0
+            if nav.config.gravity_aiding:
+                due = nav._next_gravity_t - _DUE_TOL_S
+                while n and times[n - 1] >= due:
+                    n -= 1
+        return n
+
+    @staticmethod
+    def fan_out_imu_block(
+        navigators: Iterable[Navigator],
+        readings: list[Reading],
+        ts: list[float],
+        samples: np.ndarray,
+    ) -> bool:
+        """:meth:`fan_out_imu` of each reading in turn (readings :meth:`quiet_imu_steps` allowed).
+
+        ``ts`` are their stamps and ``samples`` (n, 6) their [angular_rate, specific_force]:
+        the same batches, the same state, bit for bit. Returns False, having done nothing, when
+        the readings are not what a batch reads (:func:`batchable`): each then takes its own way.
+        """
+        last = readings[-1]
+        if not batchable(last):
+            return False
+        rate = last.values["angular_rate"]
+        for nav in navigators:
+            batch = nav._batch
+            assert batch is not None
+            batch.add_block(readings, ts, samples)
+            nav._t_imu = last.t
+            nav._rate_b = rate
+        return True
+
     def _on_imu(self, reading: Reading) -> None:
         """An IMU sample: kept for the next batch (imu_batch), or integrated now when it must be.
 

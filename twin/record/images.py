@@ -36,7 +36,7 @@ def intensity_u8(
 
 
 def percentile_of(a: NDArray[np.floating], q: float) -> float:
-    """``np.percentile(a, q)`` (its default, linear method), the same number, for less when q is high.
+    """``np.percentile(a, q)`` (its default, linear method): the same number, faster for a high q.
 
     ``np.percentile`` partitions the whole array (0.7 ms for a 306×256 S0), yet the two order
     statistics it interpolates between lie in the top (100 − q) %. A threshold taken from a

@@ -157,6 +157,20 @@ class RunRecorder:
             names=["speed_mps", "depth_m", "heading_deg"],
         )
 
+    def quiet_steps(self, sim: Simulation) -> int:
+        """The next steps with no truth sample or chase-camera picture to log: readings only."""
+        k = self._k
+        quiet = self._every_truth - k % self._every_truth - 1
+        if self.chase is not None:
+            quiet = min(quiet, self._every_cam - k % self._every_cam - 1)
+        return quiet
+
+    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
+        """Quiet steps (one IMU reading each): :meth:`on_step` logs their readings only."""
+        for reading in readings:
+            self.rec.log_reading(reading)
+        self._k += len(readings)
+
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         rec = self.rec
         for name, event in result.events:

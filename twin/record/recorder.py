@@ -511,9 +511,7 @@ class Recorder:
                 if index is None:
                     index = self._time_columns(t)
                     built.append((t, index))
-                rec.send_columns(
-                    entity, indexes=index, columns=rr.Scalars.columns(scalars=values)
-                )
+                rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=values))
                 series.t = []
                 series.rows = []
         rec.flush()

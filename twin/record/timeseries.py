@@ -35,6 +35,7 @@ import pyarrow.parquet as pq
 from twin.record.provenance import parquet_metadata
 
 if TYPE_CHECKING:
+    from twin.core.messages import Reading
     from twin.scoring.observer import RunScorer
     from twin.sim.step import Simulation, StepResult
 
@@ -69,6 +70,14 @@ class TimeSeriesWriter:
         self._readings: dict[str, list[dict[str, float]]] = {}
         self._skipped: dict[str, set[str]] = {}
         self._last_truth_t = -math.inf
+
+    def quiet_steps(self, sim: Simulation) -> int:
+        """Any number: a step without a frame or a new truth sample only adds its readings."""
+        return 1 << 30
+
+    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
+        for reading in readings:
+            self._reading(reading)
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         for reading in result.readings:

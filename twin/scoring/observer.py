@@ -16,6 +16,7 @@ from twin.scoring.navigation import FixScore, VariantScore
 from twin.world.truth import Truth
 
 if TYPE_CHECKING:
+    from twin.core.messages import Reading
     from twin.sim.step import Simulation, StepResult
 
 
@@ -43,6 +44,17 @@ class RunScorer:
     def last_samples(self) -> dict[str, dict[str, float]]:
         """Each variant's last truth sample, scored on its own: its estimate and errors."""
         return {name: s for name, v in self.variants.items() if (s := v.last_sample())}
+
+    def quiet_steps(self, sim: Simulation) -> int:
+        """The steps before the next truth sample: :meth:`on_step` only counts their readings."""
+        return self._every_truth - self._k % self._every_truth - 1
+
+    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
+        """Quiet steps (one reading each, no frames): :meth:`on_step`'s counts, no truth."""
+        counts = self.mission.readings
+        for r in readings:
+            counts[r.sensor] = counts.get(r.sensor, 0) + 1
+        self._k += len(readings)
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         counts = self.mission.readings

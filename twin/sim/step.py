@@ -12,8 +12,9 @@ same thing for the same scenario and seed. :mod:`twin.sim.build` builds one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 from scenarios.schema import Scenario
 from sensors.suite import SensorSuite
@@ -24,6 +25,7 @@ from twin.onboard.gravity.matching import StoredMap
 from twin.onboard.gravity.planner import PlannedPath
 from twin.onboard.navigator import CompassEvent, Navigator
 from twin.world.plant import Plant
+from twin.world.quiet_steps import QuietSteps
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,7 +47,14 @@ class StepResult:
 
 
 class Observer(Protocol):
-    """Something that watches the simulation step (the recorder, a scorer)."""
+    """Something that watches the simulation step (the recorder, a scorer).
+
+    An observer may also let the simulation fly *quiet* steps (the IMU's sample alone) in
+    compiled blocks (:meth:`Simulation.advance`) by defining ``quiet_steps(sim) -> int`` (how
+    many of the next steps its ``on_step`` would only take the readings of) and
+    ``on_quiet_steps(sim, readings)`` (what it does with such steps' readings, one per step).
+    An observer without them sees every step through ``on_step``, as before.
+    """
 
     def on_step(self, sim: Simulation, result: StepResult) -> None: ...
 
@@ -69,6 +78,11 @@ class Simulation:
     # The last setpoint and guidance status of :meth:`control` (for the recorder and the scorer).
     setpoint: Setpoint = field(default_factory=lambda: Setpoint(0.0, 0.0, 0.0))
     status: GuidanceStatus = field(default_factory=lambda: GuidanceStatus(0, 0, False, 0.0))
+    #: Fly quiet steps (the IMU's sample alone) in compiled blocks (:mod:`twin.world.quiet_steps`)
+    #: where the configuration allows; False: every step through :meth:`step`, the reference
+    #: the blocks equal bit for bit (``tests/sim/test_quiet_steps.py``).
+    quiet_blocks: ClassVar[bool] = True
+    _quiet: QuietSteps | None = field(default=None, init=False, repr=False)
 
     @property
     def physics_dt(self) -> float:
@@ -116,6 +130,50 @@ class Simulation:
             obs.on_step(self, result)
         return result
 
+    def advance(self, command: ActuatorCommand, max_steps: int = 1) -> int:
+        """Step under ``command``: the next step, or up to ``max_steps`` when they are quiet.
+
+        Quiet steps carry the IMU's sample alone: no other sensor due, no reading waiting, every
+        filter variant only keeping the sample for its next batch, every observer only taking
+        the readings (:class:`Observer`). They are flown in one compiled call
+        (:class:`~twin.world.quiet_steps.QuietSteps`), the readings handed to the variants and
+        the observers after it: the same numbers as :meth:`step` one at a time, bit for bit.
+        The caller keeps ``max_steps`` to the steps under one command. Returns the steps flown.
+        """
+        if max_steps > 1 and self.quiet_blocks:
+            n = self._fly_quiet(command, max_steps)
+            if n:
+                return n
+        self.step(command)
+        return 1
+
+    def _fly_quiet(self, command: ActuatorCommand, max_steps: int) -> int:
+        for obs in self.observers:
+            quiet_steps = getattr(obs, "quiet_steps", None)
+            if quiet_steps is None or not hasattr(obs, "on_quiet_steps"):
+                return 0
+            max_steps = min(max_steps, quiet_steps(self))
+        if max_steps < 2:
+            return 0
+        quiet = self._quiet
+        if quiet is None or quiet.plant is not self.plant or quiet.suite is not self.suite:
+            quiet = self._quiet = QuietSteps(self.plant, self.suite)
+        times = quiet.times(max_steps)
+        if self.navigators and times:
+            imu = quiet.imu_name
+            assert imu is not None
+            times = times[: Navigator.quiet_imu_steps(self.navigators.values(), imu, times)]
+        if len(times) < 2:
+            return 0
+        readings, samples = quiet.fly(command, times)
+        navs = self.navigators.values()
+        if navs and not Navigator.fan_out_imu_block(navs, readings, times, samples):
+            for r in readings:
+                self.deliver([r])  # an IMU reading makes no compass event
+        for obs in self.observers:
+            obs.on_quiet_steps(self, readings)  # type: ignore[attr-defined]
+        return len(readings)
+
     def fly(self, until_s: float) -> None:
         """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.
 
@@ -129,5 +187,5 @@ class Simulation:
         while self.plant.t < until_s - 0.5 * dt:
             if cmd is None or k % every == 0:
                 cmd = self.control()
-            self.step(cmd)
-            k += 1
+            left = math.ceil((until_s - 0.5 * dt - self.plant.t) / dt - 1e-9)
+            k += self.advance(cmd, max(1, min(every - k % every, left)))

@@ -1,0 +1,181 @@
+"""Quiet steps flown in compiled blocks are the step-by-step run, bit for bit.
+
+:meth:`Simulation.advance` flies the steps that carry the IMU's sample alone through
+:mod:`twin.world.quiet_steps` (physics, the limiter and the IMU in one compiled call); with
+``quiet_blocks`` False every step goes through :meth:`Simulation.step`, the reference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import scenarios
+from twin.app.run import run_scenario
+from twin.core.messages import ActuatorCommand
+from twin.sim.build import build_simulation
+from twin.sim.step import Simulation
+from twin.world import quiet_steps
+
+
+@pytest.fixture
+def blocks(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The length of every block flown (so that no test passes with no block at all)."""
+    flown: list[int] = []
+    fly = quiet_steps.QuietSteps.fly
+
+    def counted(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
+        flown.append(len(times))
+        return fly(self, command, times)
+
+    monkeypatch.setattr(quiet_steps.QuietSteps, "fly", counted)
+    return flown
+
+
+def _trial(seconds: float, **changes: Any) -> Any:
+    sc = scenarios.load("sea_trial_10m")
+    sc = dataclasses.replace(
+        sc,
+        duration_s=seconds,
+        navigation=dataclasses.replace(sc.navigation, variants=("ins", "pol", "lig")),
+    )
+    return dataclasses.replace(sc, **changes)
+
+
+def _world_state(sim: Simulation) -> tuple:
+    d = sim.plant.data
+    imu = sim.suite["imu"]
+    errors = imu._errors  # type: ignore[attr-defined]
+    return (
+        d.time, d.qpos.tobytes(), d.qvel.tobytes(), d.act.tobytes(), d.ctrl.tobytes(),
+        d.sensordata.tobytes(), d.qfrc_applied.tobytes(), sim.plant.limiter._last,
+        imu._t_last, errors.gm.value.tobytes(), errors.rw.value.tobytes(),  # type: ignore[attr-defined]
+        errors.white.value.tobytes(), tuple(sim.suite._next_step),
+        [json.dumps(r.bit_generator.state, sort_keys=True) for r in sim.suite._rngs],
+    )  # fmt: skip
+
+
+def _filter_state(sim: Simulation) -> dict[str, tuple]:
+    out = {}
+    for name, nav in sim.navigators.items():
+        f, ins = nav.filter, nav.filter.ins
+        out[name] = (
+            ins.t, ins.lat, ins.lon, ins.h, ins._v, ins._c, f.P.tobytes(), nav._t_imu,
+            np.asarray(nav._rate_b).tobytes(), dict(f.counts),
+            [(e.t, e.fix.ok, e.fix.heading_deg) for e in nav.events],
+            [(r.t, r.t_delivered, r["angular_rate"].tobytes(), r["specific_force"].tobytes())
+             for r in nav._batch.readings],
+        )  # fmt: skip
+    return out
+
+
+def test_a_flight_in_blocks_is_the_step_by_step_flight_bit_for_bit(blocks: list[int]) -> None:
+    """12.4 s of the sea trial: frames, depth and gravity updates between the blocks, and the
+    clock's time step changing by an ulp at 0.64, 1.28 … 10.24 s (a block ends before it)."""
+    sc = _trial(20.0)
+    fast = build_simulation(sc, 5)
+    fast.fly(12.4)
+    ref = build_simulation(sc, 5)
+    ref.quiet_blocks = False
+    ref.fly(12.4)
+    assert blocks and sum(blocks) > 0.6 * 1240, "the flight took the blocks"
+    assert _world_state(fast) == _world_state(ref)
+    assert _filter_state(fast) == _filter_state(ref)
+
+
+def _outputs(out: Path) -> dict[str, Any]:
+    metrics = json.loads((out / "metrics.json").read_text())
+    for k in ("wall_time_s", "real_time_factor", "provenance", "versions", "recording"):
+        metrics.pop(k, None)
+    tables = {p.name: pd.read_parquet(p) for p in sorted((out / "timeseries").glob("*.parquet"))}
+    return {"metrics": metrics, "tables": tables}
+
+
+def test_a_recorded_run_in_blocks_has_the_step_by_step_runs_outputs(
+    tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The scorer, the recorder and the time series take the blocks' readings as their steps'."""
+    sc = _trial(12.0)
+    run_scenario(sc, tmp_path / "fast", camera=False, record=True, timeseries=True)
+    assert blocks
+    monkeypatch.setattr(Simulation, "quiet_blocks", False)
+    n = len(blocks)
+    run_scenario(sc, tmp_path / "ref", camera=False, record=True, timeseries=True)
+    assert len(blocks) == n  # the reference flew no block
+    fast, ref = _outputs(tmp_path / "fast"), _outputs(tmp_path / "ref")
+    assert fast["metrics"] == ref["metrics"]
+    assert fast["metrics"]["sensor_readings"]["imu"] == 1200
+    assert (
+        fast["tables"].keys() == ref["tables"].keys() and "readings_imu.parquet" in fast["tables"]
+    )
+    for name, table in fast["tables"].items():
+        pd.testing.assert_frame_equal(table, ref["tables"][name], check_exact=True)
+
+
+def test_a_current_or_an_observer_without_quiet_steps_flies_step_by_step(
+    blocks: list[int],
+) -> None:
+    """What the blocks do not cover takes every step through Simulation.step."""
+    sc = _trial(3.0)
+    with_current = build_simulation(
+        dataclasses.replace(
+            sc, current=dataclasses.replace(sc.current, kind="constant", speed_mps=0.2)
+        ),
+        1,
+    )
+    with_current.fly(2.0)
+    assert not blocks
+
+    class Watcher:
+        steps = 0
+
+        def on_step(self, sim: Simulation, result: Any) -> None:
+            Watcher.steps += 1
+
+    watched = build_simulation(sc, 1)
+    watched.observers.append(Watcher())
+    watched.fly(2.0)
+    assert not blocks and Watcher.steps == 200
+
+
+def _to_a_block(sims: list[Simulation]) -> None:
+    """Step both simulations alike to where the next steps are quiet."""
+    sims[0].fly(0.5)
+    sims[1].fly(0.5)
+    cmd = sims[0].control()
+    sims[1].control()
+    while True:
+        probe = quiet_steps.QuietSteps(sims[0].plant, sims[0].suite)
+        if len(probe.times(5)) >= 2:
+            return
+        for sim in sims:
+            sim.step(cmd)
+
+
+def test_a_bad_command_or_a_blown_up_state_is_named_as_step_by_step(blocks: list[int]) -> None:
+    """A non-finite command raises the limiter's error before anything is drawn; a blown-up
+    state (an infinite velocity) raises the plant's, in a block as in a step (MuJoCo's reset
+    of such a state is off in the model: it would fly on from the start in silence)."""
+    sc = _trial(3.0)
+    sims = [build_simulation(sc, 2), build_simulation(sc, 2)]
+    sims[1].quiet_blocks = False
+    _to_a_block(sims)
+    n = len(blocks)
+    bad = ActuatorCommand(rudder_rad=math.nan, stern_rad=0.0, propeller_rps=10.0)
+    for sim in sims:
+        with pytest.raises(ValueError, match="actuator command has a non-finite value"):
+            sim.advance(bad, 5)
+    # The first tried a block, which refused the command before it drew a normal or stepped.
+    assert len(blocks) == n + 1 and _world_state(sims[0]) == _world_state(sims[1])
+    for sim in sims:
+        sim.plant.data.qvel[sim.plant._dof] = math.inf
+        with pytest.raises(FloatingPointError, match="physics diverged at t = "):
+            sim.advance(ActuatorCommand(0.0, 0.0, 10.0), 5)
+    assert len(blocks) == n + 2 and blocks[-1] >= 2  # the first flew a block
