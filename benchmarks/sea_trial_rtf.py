@@ -43,8 +43,12 @@ STAGES: tuple[tuple[str, str, str, str], ...] = (
     ("physics (MuJoCo + hydrodynamics)", "twin.world.plant", "Plant", "step"),
     # Since issue #31 the steps with the IMU's sample alone fly in compiled blocks: their
     # physics and IMU samples are in this row, not in the two beside it.
-    ("quiet steps in compiled blocks (physics + IMU)", "twin.world.quiet_steps", "QuietSteps",
-     "fly"),
+    (
+        "quiet steps in compiled blocks (physics + IMU)",
+        "twin.world.quiet_steps",
+        "QuietSteps",
+        "fly",
+    ),
     ("INS + covariance (3 filters, 100 Hz)", "twin.onboard.eskf", "Eskf", "predict_reading"),
     # Since issue #31 the samples go through the INS in batches (a sample the batch refuses
     # still goes through predict_reading, inside flush: counted twice, and none does in a trial).
