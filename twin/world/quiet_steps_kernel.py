@@ -24,9 +24,12 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from sensors import imu_kernel
+from sensors.imu_kernel import sample as imu_sample
 from twin.core.kernel_cache import njit
-from twin.world import hydrodynamics_kernel
+from twin.world.hydrodynamics_kernel import body_wrench
+
+# (The two kernels above are bound by name here, not looked up in their modules when this one is
+# compiled: a profiler that wraps their modules' attributes in Python timers leaves them be.)
 
 #: ``mjtStage.mjSTAGE_VEL``: what :meth:`Plant._sync` skips in ``mj_forwardSkip``.
 STAGE_VEL = 2
@@ -108,7 +111,7 @@ def fly(  # type: ignore[no-untyped-def]
         # Plant._sync
         _call_md(step1, m_ptr, d_ptr)
         depth = surface_z - qpos[i_z]
-        hydrodynamics_kernel.body_wrench(
+        body_wrench(
             xmat, qvel6, depth, current, act, ids, passive6, bias6, k_consts, strips, ma,
             buoyancy_n, radius, minv, rhs, applied6,
         )  # fmt: skip
@@ -118,7 +121,7 @@ def fly(  # type: ignore[no-untyped-def]
         # Imu.sample (its measure_compiled)
         lat = lat0 + qpos[i_y] / r_m
         h = site_pos[2] - surface_z
-        out[k] = imu_kernel.sample(
+        out[k] = imu_sample(
             gyro, accel, linvel, c_sn, h, lat, earth_terms, e_consts, block, turn_on, gm_value,
             gm_phi, gm_q, rw_value, rw_density, t - t_last, has_rw, white_sigma, white_value,
             normals[k],
