@@ -119,6 +119,25 @@ def test_a_recorded_run_in_blocks_has_the_step_by_step_runs_outputs(
         pd.testing.assert_frame_equal(table, ref["tables"][name], check_exact=True)
 
 
+def _mcap_messages(path: Path) -> list[tuple[str, int, bytes]]:
+    from mcap.reader import make_reader
+
+    with path.open("rb") as f:
+        return [(c.topic, m.log_time, m.data) for _, c, m in make_reader(f).iter_messages()]
+
+
+def test_a_ros2_log_in_blocks_has_the_step_by_step_runs_messages(
+    tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    sc = _trial(3.0)
+    run_scenario(sc, tmp_path / "fast", camera=False, record=False, mcap=True)
+    assert blocks
+    monkeypatch.setattr(Simulation, "quiet_blocks", False)
+    run_scenario(sc, tmp_path / "ref", camera=False, record=False, mcap=True)
+    fast, ref = (_mcap_messages(next((tmp_path / d).glob("*.mcap"))) for d in ("fast", "ref"))
+    assert len(fast) > 300 and fast == ref
+
+
 def test_a_current_or_an_observer_without_quiet_steps_flies_step_by_step(
     blocks: list[int],
 ) -> None:

@@ -51,6 +51,7 @@ from twin.core.frames import dcm_to_quat, quat_to_dcm
 from twin.record.recorder import utc_ns
 
 if TYPE_CHECKING:
+    from twin.core.messages import Reading
     from twin.scoring.observer import RunScorer
     from twin.sim.step import Simulation, StepResult
 
@@ -255,6 +256,16 @@ class McapLog:
                 },
                 0.0,
             )
+
+    def quiet_steps(self, sim: Simulation) -> int:
+        """The steps before the next truth sample: :meth:`on_step` only writes their readings."""
+        return self._every_truth - self._k % self._every_truth - 1
+
+    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
+        """Quiet steps (one IMU reading each): their readings, as :meth:`on_step` writes them."""
+        for reading in readings:
+            self._reading(reading)
+        self._k += len(readings)
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         for reading in result.readings:
