@@ -68,6 +68,7 @@ def test_percentile_of_is_numpys_percentile_bit_for_bit(q: float) -> None:
 def test_intensity_picture_scales_to_the_percentile() -> None:
     rng = np.random.default_rng(5)
     s0 = rng.uniform(0, 3000, (256, 306)).astype(np.float32)
+    s0[:, :100] = 0.0  # black outside a fisheye's circle (the power's slow path, skipped)
     top = float(np.percentile(s0, 99.5))
     img = images.intensity_u8(s0)
     expected = (np.clip(s0 / top, 0.0, 1.0) ** (1.0 / 2.2) * 255.0 + 0.5).astype(np.uint8)

@@ -31,7 +31,10 @@ def intensity_u8(
         top = percentile_of(s, percentile) if s.size else 0.0
     if not (math.isfinite(top) and top > 0):
         return np.zeros(s.shape, dtype=np.uint8)
-    x = np.clip(s / top, 0.0, 1.0) ** (1.0 / 2.2)
+    # Clipped below at 1e-30, not 0: numpy's float32 power takes a slow path at 0 (ten times a
+    # pixel's time, and a fisheye frame is ~40 % black outside its circle), and any value under
+    # 1e-30 reads 0 either way (1e-30 ** (1/2.2) · 255 + 0.5 rounds to 0.5 in float32).
+    x = np.clip(s / top, 1e-30, 1.0) ** (1.0 / 2.2)
     return (x * 255.0 + 0.5).astype(np.uint8)
 
 
