@@ -164,6 +164,15 @@ def test_a_current_or_an_observer_without_quiet_steps_flies_step_by_step(
     assert not blocks and Watcher.steps == 200
 
 
+def test_without_mujocos_library_beside_its_bindings_every_step_is_flown_alone(
+    blocks: list[int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(quiet_steps, "_mujoco_functions", lambda: None)
+    sim = build_simulation(_trial(3.0), 1)
+    sim.fly(1.0)
+    assert not blocks and sim.plant.t == pytest.approx(1.0)
+
+
 def _to_a_block(sims: list[Simulation]) -> None:
     """Step both simulations alike to where the next steps are quiet."""
     sims[0].fly(0.5)

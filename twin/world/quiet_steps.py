@@ -7,10 +7,11 @@ says how many of the next steps are quiet on the world's side and flies them thr
 :func:`twin.world.quiet_steps_kernel.fly`: :meth:`Plant.step` and :meth:`Imu.sample` in one
 compiled call, the same numbers bit for bit (``tests/sim/test_quiet_steps.py``).
 
-It applies to the built-in configuration only, checked on each call: the plant's own step with
-the compiled wrench and no current, the built-in command limiter, and an :class:`Imu` of its
-own class (compiled sample, no delay, no clock offset) sampled every physics step; anything
-else (a sensor subclass, a current, a delayed IMU) is flown one step at a time as before.
+It applies to the built-in configuration only: the plant's own step with the compiled wrench
+and no current, the built-in command limiter, and one :class:`Imu` of its own class (compiled
+sample, no delay, no clock offset) sampled every physics step (the classes checked once, the
+state on every call); anything else (a sensor subclass, a current, a delayed IMU, a MuJoCo
+whose library is not beside its bindings) is flown one step at a time as before.
 The IMU's error processes keep their coefficients for one time step; a block ends before the
 step whose time step differs (MuJoCo's running clock changes it by an ulp when it crosses a
 power of two).
@@ -35,13 +36,20 @@ from twin.world.actuators import CommandLimiter
 from twin.world.hydrodynamics import Hydrodynamics
 from twin.world.plant import Plant
 
+# MuJoCo's shared library beside its Python bindings, as the wheels ship it.
+_LIBRARIES = ("libmujoco.so*", "libmujoco*.dylib", "mujoco*.dll")
+
 
 @functools.cache
-def _mujoco_functions() -> tuple[int, int, int]:
-    """The addresses of ``mj_step1``, ``mj_step2`` and ``mj_forwardSkip`` the bindings call."""
-    libs = sorted(Path(mujoco.__file__).parent.glob("libmujoco.so*"))
+def _mujoco_functions() -> tuple[int, int, int] | None:
+    """The addresses of ``mj_step1``, ``mj_step2`` and ``mj_forwardSkip`` the bindings call.
+
+    None when the library is not where the wheels put it (the steps are then flown one by one).
+    """
+    here = Path(mujoco.__file__).parent
+    libs = [p for pattern in _LIBRARIES for p in sorted(here.glob(pattern))]
     if not libs:
-        raise RuntimeError(f"no libmujoco.so* beside {mujoco.__file__}")
+        return None
     lib = ctypes.CDLL(str(libs[-1]))  # the loaded library: dlopen returns the same handle
 
     def address(name: str) -> int:
@@ -93,6 +101,7 @@ class QuietSteps:
             isinstance(self._imu, Imu)
             and _imu_class_applies(self._imu)
             and _plant_class_applies(plant)
+            and _mujoco_functions() is not None
         )
         self._static: tuple[Any, ...] = ()
         self._static_for: object = None
@@ -160,7 +169,9 @@ class QuietSteps:
         errors = imu._errors
         turn_on, gm_value, rw_value, white_value = errors._flat
         site_pos, c_sn = plant.site_pose(imu.site)
-        step1, step2, forward_skip = _mujoco_functions()
+        functions = _mujoco_functions()
+        assert functions is not None  # checked in __init__
+        step1, step2, forward_skip = functions
         self._static = (
             step1, step2, forward_skip, m._address, d._address, quiet_steps_kernel.STAGE_VEL,
             float(m.opt.timestep), np.array(limiter._min, dtype=np.float64),
