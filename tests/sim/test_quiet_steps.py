@@ -98,18 +98,30 @@ def _outputs(out: Path) -> dict[str, Any]:
     return {"metrics": metrics, "tables": tables}
 
 
+def _run_both_ways(
+    tmp_path: Path,
+    blocks: list[int],
+    monkeypatch: pytest.MonkeyPatch,
+    seconds: float,
+    **outputs: bool,
+) -> tuple[Path, Path]:
+    """The trial run in blocks into tmp_path/fast, then step by step into tmp_path/ref."""
+    sc = _trial(seconds)
+    run_scenario(sc, tmp_path / "fast", camera=False, **outputs)
+    n = len(blocks)
+    assert n, "the run flew blocks"
+    monkeypatch.setattr(Simulation, "quiet_blocks", False)
+    run_scenario(sc, tmp_path / "ref", camera=False, **outputs)
+    assert len(blocks) == n, "the reference flew none"
+    return tmp_path / "fast", tmp_path / "ref"
+
+
 def test_a_recorded_run_in_blocks_has_the_step_by_step_runs_outputs(
     tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The scorer, the recorder and the time series take the blocks' readings as their steps'."""
-    sc = _trial(12.0)
-    run_scenario(sc, tmp_path / "fast", camera=False, record=True, timeseries=True)
-    assert blocks
-    monkeypatch.setattr(Simulation, "quiet_blocks", False)
-    n = len(blocks)
-    run_scenario(sc, tmp_path / "ref", camera=False, record=True, timeseries=True)
-    assert len(blocks) == n  # the reference flew no block
-    fast, ref = _outputs(tmp_path / "fast"), _outputs(tmp_path / "ref")
+    dirs = _run_both_ways(tmp_path, blocks, monkeypatch, 12.0, record=True, timeseries=True)
+    fast, ref = (_outputs(d) for d in dirs)
     assert fast["metrics"] == ref["metrics"]
     assert fast["metrics"]["sensor_readings"]["imu"] == 1200
     assert (
@@ -129,12 +141,8 @@ def _mcap_messages(path: Path) -> list[tuple[str, int, bytes]]:
 def test_a_ros2_log_in_blocks_has_the_step_by_step_runs_messages(
     tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    sc = _trial(3.0)
-    run_scenario(sc, tmp_path / "fast", camera=False, record=False, mcap=True)
-    assert blocks
-    monkeypatch.setattr(Simulation, "quiet_blocks", False)
-    run_scenario(sc, tmp_path / "ref", camera=False, record=False, mcap=True)
-    fast, ref = (_mcap_messages(next((tmp_path / d).glob("*.mcap"))) for d in ("fast", "ref"))
+    dirs = _run_both_ways(tmp_path, blocks, monkeypatch, 3.0, record=False, mcap=True)
+    fast, ref = (_mcap_messages(next(d.glob("*.mcap"))) for d in dirs)
     assert len(fast) > 300 and fast == ref
 
 
