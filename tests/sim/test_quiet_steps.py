@@ -25,15 +25,24 @@ from twin.sim.step import Simulation
 from twin.world import quiet_steps
 
 
+class Flown(list[int]):
+    """The length of every block flown, and the readings other than the IMU's they delivered."""
+
+    delivered: list[str]
+
+
 @pytest.fixture
-def blocks(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """The length of every block flown (so that no test passes with no block at all)."""
-    flown: list[int] = []
+def blocks(monkeypatch: pytest.MonkeyPatch) -> Flown:
+    """Every block flown (so that no test passes with no block at all)."""
+    flown = Flown()
+    flown.delivered = []
     fly = quiet_steps.QuietSteps.fly
 
     def counted(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
         flown.append(len(times))
-        return fly(self, command, times)
+        readings, samples = fly(self, command, times)
+        flown.delivered += [r.sensor for r in readings if r.sensor != "imu"]
+        return readings, samples
 
     monkeypatch.setattr(quiet_steps.QuietSteps, "fly", counted)
     return flown
@@ -76,16 +85,18 @@ def _filter_state(sim: Simulation) -> dict[str, tuple]:
     return out
 
 
-def test_a_flight_in_blocks_is_the_step_by_step_flight_bit_for_bit(blocks: list[int]) -> None:
-    """12.4 s of the sea trial: frames, depth and gravity updates between the blocks, and the
-    clock's time step changing by an ulp at 0.64, 1.28 … 10.24 s (a block ends before it)."""
+def test_a_flight_in_blocks_is_the_step_by_step_flight_bit_for_bit(blocks: Flown) -> None:
+    """12.4 s of the sea trial: frames and gravity updates between the blocks, the depth
+    readings delivered inside them, and the clock's time step changing by an ulp at 0.64, 1.28
+    … 10.24 s (a block ends before it)."""
     sc = _trial(20.0)
     fast = build_simulation(sc, 5)
     fast.fly(12.4)
     ref = build_simulation(sc, 5)
     ref.quiet_blocks = False
     ref.fly(12.4)
-    assert blocks and sum(blocks) > 0.6 * 1240, "the flight took the blocks"
+    assert blocks and sum(blocks) > 0.8 * 1240, "the flight took the blocks"
+    assert blocks.count(9) > 100 and blocks.delivered.count("depth") > 100
     assert _world_state(fast) == _world_state(ref)
     assert _filter_state(fast) == _filter_state(ref)
 
@@ -100,7 +111,7 @@ def _outputs(out: Path) -> dict[str, Any]:
 
 def _run_both_ways(
     tmp_path: Path,
-    blocks: list[int],
+    blocks: Flown,
     monkeypatch: pytest.MonkeyPatch,
     seconds: float,
     **outputs: bool,
@@ -117,7 +128,7 @@ def _run_both_ways(
 
 
 def test_a_recorded_run_in_blocks_has_the_step_by_step_runs_outputs(
-    tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, blocks: Flown, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The scorer, the recorder and the time series take the blocks' readings as their steps'."""
     dirs = _run_both_ways(tmp_path, blocks, monkeypatch, 12.0, record=True, timeseries=True)
@@ -139,7 +150,7 @@ def _mcap_messages(path: Path) -> list[tuple[str, int, bytes]]:
 
 
 def test_a_ros2_log_in_blocks_has_the_step_by_step_runs_messages(
-    tmp_path: Path, blocks: list[int], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, blocks: Flown, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     dirs = _run_both_ways(tmp_path, blocks, monkeypatch, 3.0, record=False, mcap=True)
     fast, ref = (_mcap_messages(next(d.glob("*.mcap"))) for d in dirs)
@@ -147,7 +158,7 @@ def test_a_ros2_log_in_blocks_has_the_step_by_step_runs_messages(
 
 
 def test_a_current_or_an_observer_without_quiet_steps_flies_step_by_step(
-    blocks: list[int],
+    blocks: Flown,
 ) -> None:
     """What the blocks do not cover takes every step through Simulation.step."""
     sc = _trial(3.0)
@@ -173,7 +184,7 @@ def test_a_current_or_an_observer_without_quiet_steps_flies_step_by_step(
 
 
 def test_without_mujocos_library_beside_its_bindings_every_step_is_flown_alone(
-    blocks: list[int], monkeypatch: pytest.MonkeyPatch
+    blocks: Flown, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(quiet_steps, "_mujoco_functions", lambda: None)
     sim = build_simulation(_trial(3.0), 1)
@@ -195,7 +206,7 @@ def _to_a_block(sims: list[Simulation]) -> None:
             sim.step(cmd)
 
 
-def test_a_bad_command_or_a_blown_up_state_is_named_as_step_by_step(blocks: list[int]) -> None:
+def test_a_bad_command_or_a_blown_up_state_is_named_as_step_by_step(blocks: Flown) -> None:
     """A non-finite command raises the limiter's error before anything is drawn; a blown-up
     state (an infinite velocity) raises the plant's, in a block as in a step (MuJoCo's reset
     of such a state is off in the model: it would fly on from the start in silence)."""

@@ -280,28 +280,62 @@ class Navigator:
         return n
 
     @staticmethod
-    def fan_out_imu_block(
-        navigators: Iterable[Navigator],
-        readings: list[Reading],
-        ts: list[float],
-        samples: np.ndarray,
-    ) -> bool:
-        """:meth:`fan_out_imu` of each reading in turn (readings :meth:`quiet_imu_steps` allowed).
+    def takes_quietly(navigators: Iterable[Navigator], reading: Reading) -> bool:
+        """Whether every navigator takes this (non-IMU) reading without a compass event.
 
-        ``ts`` are their stamps and ``samples`` (n, 6) their [angular_rate, specific_force]:
-        the same batches, the same state, bit for bit. Returns False, having done nothing, when
-        the readings are not what a batch reads (:func:`batchable`): each then takes its own way.
+        A frame from the compass's camera may make one; a depth, a gravimeter or an aid's
+        reading updates the filter and makes none.
         """
-        last = readings[-1]
-        if not batchable(last):
-            return False
-        rate = last.values["angular_rate"]
-        for nav in navigators:
+        return all(
+            type(nav).on_reading is Navigator.on_reading and reading.sensor != nav.knowledge.camera
+            for nav in navigators
+        )
+
+    @staticmethod
+    def fan_out_imu_block(
+        navigators: Iterable[Navigator], readings: list[Reading], samples: np.ndarray
+    ) -> bool:
+        """:meth:`on_reading` of each reading in turn, the IMU's kept as :meth:`fan_out_imu` does.
+
+        For readings :meth:`quiet_imu_steps` and :meth:`takes_quietly` allowed, in delivery
+        order; ``samples`` (n, 6) are the IMU readings' [angular_rate, specific_force] in order.
+        Each run of IMU samples goes to the batch at once, each other reading through
+        :meth:`on_reading`: the same batches, the same state, bit for bit. Returns False, having
+        done nothing, when the IMU's readings are not what a batch reads (:func:`batchable`):
+        each then takes its own way.
+        """
+        navs = tuple(navigators)
+        if not navs:
+            return True
+        imu = navs[0].knowledge.imu
+        runs: list[tuple[int, int]] = []  # [i, j) of readings that are IMU samples
+        i, n = 0, len(readings)
+        while i < n:
+            j = i
+            while j < n and readings[j].sensor == imu:
+                j += 1
+            if j > i:
+                if not batchable(readings[i]):
+                    return False
+                runs.append((i, j))
+            i = j + 1 if j == i else j
+        for nav in navs:
             batch = nav._batch
             assert batch is not None
-            batch.add_block(readings, ts, samples)
-            nav._t_imu = last.t
-            nav._rate_b = rate
+            row, i = 0, 0
+            for a, b in runs:
+                for r in readings[i:a]:
+                    nav.on_reading(r)  # no event: takes_quietly
+                m = b - a
+                run = readings[a:b]
+                batch.add_block(run, [r.t for r in run], samples[row : row + m])
+                row += m
+                last = readings[b - 1]
+                nav._t_imu = last.t
+                nav._rate_b = last.values["angular_rate"]
+                i = b
+            for r in readings[i:]:
+                nav.on_reading(r)
         return True
 
     def _on_imu(self, reading: Reading) -> None:

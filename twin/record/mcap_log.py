@@ -261,11 +261,11 @@ class McapLog:
         """The steps before the next truth sample: :meth:`on_step` only writes their readings."""
         return self._every_truth - self._k % self._every_truth - 1
 
-    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
-        """Quiet steps (one IMU reading each): their readings, as :meth:`on_step` writes them."""
+    def on_quiet_steps(self, sim: Simulation, steps: int, readings: list[Reading]) -> None:
+        """Quiet steps (no frame, no truth sample): their readings, as :meth:`on_step` has them."""
         for reading in readings:
             self._reading(reading)
-        self._k += len(readings)
+        self._k += steps
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         for reading in result.readings:

@@ -165,11 +165,11 @@ class RunRecorder:
             quiet = min(quiet, self._every_cam - k % self._every_cam - 1)
         return quiet
 
-    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
-        """Quiet steps (one IMU reading each): :meth:`on_step` logs their readings only."""
+    def on_quiet_steps(self, sim: Simulation, steps: int, readings: list[Reading]) -> None:
+        """Quiet steps (no frame, no truth sample): :meth:`on_step` logs their readings only."""
         for reading in readings:
             self.rec.log_reading(reading)
-        self._k += len(readings)
+        self._k += steps
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         rec = self.rec

@@ -75,7 +75,7 @@ class TimeSeriesWriter:
         """Any number: a step without a frame or a new truth sample only adds its readings."""
         return 1 << 30
 
-    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
+    def on_quiet_steps(self, sim: Simulation, steps: int, readings: list[Reading]) -> None:
         for reading in readings:
             self._reading(reading)
 

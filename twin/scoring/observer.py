@@ -49,12 +49,12 @@ class RunScorer:
         """The steps before the next truth sample: :meth:`on_step` only counts their readings."""
         return self._every_truth - self._k % self._every_truth - 1
 
-    def on_quiet_steps(self, sim: Simulation, readings: list[Reading]) -> None:
-        """Quiet steps (one reading each, no frames): :meth:`on_step`'s counts, no truth."""
+    def on_quiet_steps(self, sim: Simulation, steps: int, readings: list[Reading]) -> None:
+        """Quiet steps (no frame, no truth sample): :meth:`on_step`'s counts of their readings."""
         counts = self.mission.readings
         for r in readings:
             counts[r.sensor] = counts.get(r.sensor, 0) + 1
-        self._k += len(readings)
+        self._k += steps
 
     def on_step(self, sim: Simulation, result: StepResult) -> None:
         counts = self.mission.readings

@@ -49,11 +49,12 @@ class StepResult:
 class Observer(Protocol):
     """Something that watches the simulation step (the recorder, a scorer).
 
-    An observer may also let the simulation fly *quiet* steps (the IMU's sample alone) in
-    compiled blocks (:meth:`Simulation.advance`) by defining ``quiet_steps(sim) -> int`` (how
-    many of the next steps its ``on_step`` would only take the readings of) and
-    ``on_quiet_steps(sim, readings)`` (what it does with such steps' readings, one per step).
-    An observer without them sees every step through ``on_step``, as before.
+    An observer may also let the simulation fly *quiet* steps (the IMU's sample and readings
+    sampled before, no frame, no truth layer) in compiled blocks (:meth:`Simulation.advance`) by
+    defining ``quiet_steps(sim) -> int`` (how many of the next steps its ``on_step`` would only
+    take the readings of) and ``on_quiet_steps(sim, steps, readings)`` (what it does with those
+    steps' readings, in delivery order). An observer without them sees every step through
+    ``on_step``, as before.
     """
 
     def on_step(self, sim: Simulation, result: StepResult) -> None: ...
@@ -133,9 +134,10 @@ class Simulation:
     def advance(self, command: ActuatorCommand, max_steps: int = 1) -> int:
         """Step under ``command``: the next step, or up to ``max_steps`` when they are quiet.
 
-        Quiet steps carry the IMU's sample alone: no other sensor due, no reading waiting, every
-        filter variant only keeping the sample for its next batch, every observer only taking
-        the readings (:class:`Observer`). They are flown in one compiled call
+        Quiet steps sample the IMU alone (no other sensor due; a reading sampled before may be
+        delivered in them, not a frame), every filter variant keeping the IMU's samples for its
+        next batch and taking the other readings as it would, every observer only taking the
+        readings (:class:`Observer`). They are flown in one compiled call
         (:class:`~twin.world.quiet_steps.QuietSteps`), the readings handed to the variants and
         the observers after it: the same numbers as :meth:`step` one at a time, bit for bit.
         The caller keeps ``max_steps`` to the steps under one command. Returns the steps flown.
@@ -159,20 +161,26 @@ class Simulation:
         if quiet is None or quiet.plant is not self.plant or quiet.suite is not self.suite:
             quiet = self._quiet = QuietSteps(self.plant, self.suite)
         times = quiet.times(max_steps)
-        if self.navigators and times:
+        navs = self.navigators.values()
+        # Readings the queue delivers in these steps: each one that the observers or a filter
+        # would do more with (a frame: a compass event, a truth layer) ends the block before it.
+        for j, reading, truth in quiet.deliveries(len(times)):
+            if truth is not None or not Navigator.takes_quietly(navs, reading):
+                times = times[:j]
+                break
+        if navs and times:
             imu = quiet.imu_name
             assert imu is not None
-            times = times[: Navigator.quiet_imu_steps(self.navigators.values(), imu, times)]
+            times = times[: Navigator.quiet_imu_steps(navs, imu, times)]
         if len(times) < 2:
             return 0
         readings, samples = quiet.fly(command, times)
-        navs = self.navigators.values()
-        if navs and not Navigator.fan_out_imu_block(navs, readings, times, samples):
+        if navs and not Navigator.fan_out_imu_block(navs, readings, samples):
             for r in readings:
-                self.deliver([r])  # an IMU reading makes no compass event
+                self.deliver([r])  # none makes a compass event (takes_quietly)
         for obs in self.observers:
-            obs.on_quiet_steps(self, readings)  # type: ignore[attr-defined]
-        return len(readings)
+            obs.on_quiet_steps(self, len(times), readings)  # type: ignore[attr-defined]
+        return len(times)
 
     def fly(self, until_s: float) -> None:
         """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.

@@ -1,8 +1,9 @@
 """The world's quiet steps: physics and the IMU's sample alone, flown many at a time, compiled.
 
-A step is *quiet* when the IMU's sample is all that happens in it: no other sensor is due, no
-reading is waiting to be delivered, and (decided by :class:`twin.sim.step.Simulation`) no
-filter, observer or autopilot acts on it other than by keeping the sample. :class:`QuietSteps`
+A step is *quiet* when the IMU's sample is all the physics side does in it: no other sensor is
+due (a reading sampled before may be delivered in it, from the suite's queue, in the queue's
+order), and (decided by :class:`twin.sim.step.Simulation`) no filter, observer or autopilot
+acts on it beyond taking its readings. :class:`QuietSteps`
 says how many of the next steps are quiet on the world's side and flies them through
 :func:`twin.world.quiet_steps_kernel.fly`: :meth:`Plant.step` and :meth:`Imu.sample` in one
 compiled call, the same numbers bit for bit (``tests/sim/test_quiet_steps.py``).
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import heapq
 import math
 from pathlib import Path
 from typing import Any
@@ -137,13 +139,12 @@ class QuietSteps:
         now = round(t / dt)
         if suite._next_step[i] != now + 1:
             return []
-        # Steps before any other sensor is due or a pending reading is delivered.
+        # Steps before any other sensor is due (its sample is Python's); a reading waiting in the
+        # queue may be delivered in them (deliveries).
         last = now + max_steps
         for j, step in enumerate(suite._next_step):
             if j != i and step <= last:
                 last = step - 1
-        if suite._pending:
-            last = min(last, suite._pending[0][0] - 1)
         t_prev, gm_dt = imu._t_last, imu._errors.gm._dt
         if t_prev != t:
             return []
@@ -155,6 +156,18 @@ class QuietSteps:
             out.append(t)
             t_prev = t
         return out
+
+    def deliveries(self, n: int) -> list[tuple[int, Reading, object]]:
+        """The readings waiting in the suite's queue that the next ``n`` steps would deliver.
+
+        As (step index in the block, reading, its truth), in the queue's order.
+        """
+        suite = self.suite
+        if not suite._pending or n < 1:
+            return []
+        now = round(self.plant.t / float(self.plant.model.opt.timestep))
+        due = sorted(e for e in suite._pending if e[0] <= now + n)
+        return [(e[0] - now - 1, e[3], e[4]) for e in due]
 
     def _static_args(self) -> tuple[Any, ...]:
         """The kernel's arguments that stay from block to block (for this MjData)."""
@@ -195,8 +208,9 @@ class QuietSteps:
         """Fly the quiet steps :meth:`times` gave, under ``command``.
 
         Returns:
-            The IMU's readings, one a step, and their channels as rows (n, 6) [angular_rate,
-            specific_force] (the readings' arrays are views of them).
+            The readings the steps deliver, in delivery order (the IMU's one a step and those
+            :meth:`deliveries` named, taken from the queue), and the IMU's channels as rows
+            (n, 6) [angular_rate, specific_force] (its readings' arrays are views of them).
 
         Raises:
             ValueError: The command has a non-finite value (as the limiter says it).
@@ -245,4 +259,20 @@ class QuietSteps:
             Reading(name, t, t, {"angular_rate": out[k, 0:3], "specific_force": out[k, 3:6]})
             for k, t in enumerate(times)
         ]
-        return readings, out
+        pending = suite._pending
+        if not pending or pending[0][0] > step:
+            return readings, out
+        # Readings from the queue, each in its step: before the step's IMU sample when the queue
+        # would pop it first (an earlier delivery time; on a tie the older entry, which it is).
+        first = step - n + 1
+        merged: list[Reading] = []
+        k = 0
+        while pending and pending[0][0] <= step:
+            due, t_delivered, _, reading, _ = heapq.heappop(pending)
+            j = due - first
+            while k < j or (k == j and times[k] < t_delivered):
+                merged.append(readings[k])
+                k += 1
+            merged.append(reading)
+        merged.extend(readings[k:])
+        return merged, out
