@@ -242,8 +242,8 @@ def fly_quiet(self, cmd, most, _orig=orig_quiet):
     t0 = time.perf_counter()
     n = _orig(self, cmd, most)
     if n:
-        kinds_s["imu, in a compiled block of quiet steps"] += time.perf_counter() - t0
-        kinds_n["imu, in a compiled block of quiet steps"] += n
+        kinds_s["quiet: the IMU (and readings sampled before, delivered), in compiled blocks"] += time.perf_counter() - t0
+        kinds_n["quiet: the IMU (and readings sampled before, delivered), in compiled blocks"] += n
     return n
 step_mod.Simulation._fly_quiet = fly_quiet
 sc = scenarios.load("sea_trial_10m")
