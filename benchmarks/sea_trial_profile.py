@@ -238,12 +238,13 @@ step_mod.Simulation.step = step
 # A block of quiet steps (Simulation.advance), timed whole (its samples handed on to the filters
 # and the scorer), counted by its steps; a look that found none is in the stage table.
 orig_quiet = step_mod.Simulation._fly_quiet
+QUIET_KIND = "quiet: the IMU (and readings sampled before, delivered), in compiled blocks"
 def fly_quiet(self, cmd, most, _orig=orig_quiet):
     t0 = time.perf_counter()
     n = _orig(self, cmd, most)
     if n:
-        kinds_s["quiet: the IMU (and readings sampled before, delivered), in compiled blocks"] += time.perf_counter() - t0
-        kinds_n["quiet: the IMU (and readings sampled before, delivered), in compiled blocks"] += n
+        kinds_s[QUIET_KIND] += time.perf_counter() - t0
+        kinds_n[QUIET_KIND] += n
     return n
 step_mod.Simulation._fly_quiet = fly_quiet
 sc = scenarios.load("sea_trial_10m")
