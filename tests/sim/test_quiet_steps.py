@@ -206,10 +206,13 @@ def _to_a_block(sims: list[Simulation]) -> None:
             sim.step(cmd)
 
 
-def test_a_bad_command_or_a_blown_up_state_is_named_as_step_by_step(blocks: Flown) -> None:
+def test_a_bad_command_or_a_blown_up_state_is_named_as_step_by_step(
+    blocks: Flown, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A non-finite command raises the limiter's error before anything is drawn; a blown-up
     state (an infinite velocity) raises the plant's, in a block as in a step (MuJoCo's reset
     of such a state is off in the model: it would fly on from the start in silence)."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT here
     sc = _trial(3.0)
     sims = [build_simulation(sc, 2), build_simulation(sc, 2)]
     sims[1].quiet_blocks = False
