@@ -185,3 +185,30 @@ def test_gravity_updates_keep_their_instants_on_a_clock_that_lags(fan_out: bool)
     k = np.arange(1, len(at) + 1)
     assert len(at) == round(3.0 * cfg.gravity_rate_hz)
     np.testing.assert_allclose(at, k / cfg.gravity_rate_hz - lag, atol=1e-9)
+
+
+def test_a_batch_longer_than_its_arrays_grows_and_keeps_every_sample():
+    """150 samples kept one by one and in blocks (past the arrays' first 64 rows), then
+    integrated: the one-by-one filter's state."""
+    cfg = NavigatorConfig(gravity_aiding=False)
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    rng = np.random.default_rng(13)
+    stream = [_imu(0.01 * k, rng) for k in range(1, 151)]
+    nav = Navigator("ins", know, init, cfg)
+    ref = Eskf(cfg.eskf, init)
+    batch = nav._batch
+    assert batch is not None
+    for r in stream[:50]:
+        batch.add(r)
+    for a, b in ((50, 60), (60, 130)):
+        run = stream[a:b]
+        rows = np.array([[*r["angular_rate"], *r["specific_force"]] for r in run])
+        batch.add_block(run, [r.t for r in run], rows)
+    for r in stream[130:]:
+        batch.add(r)
+    assert len(batch) == 150
+    batch.flush()
+    for r in stream:
+        ref.predict_reading(r)
+    assert _state(batch.filter) == _state(ref)

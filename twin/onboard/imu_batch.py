@@ -87,9 +87,7 @@ class ImuBatch:
         """Keep one IMU reading (:func:`batchable`) for the next :meth:`flush`."""
         k = len(self.readings)
         if k == self._ts.shape[0]:
-            self._ts = np.concatenate((self._ts, np.empty(k)))
-            self._ws = np.concatenate((self._ws, np.empty((k, 3))))
-            self._fs = np.concatenate((self._fs, np.empty((k, 3))))
+            self._grow(k + 1)
         self._ts[k] = reading.t
         self._ws[k] = reading.values["angular_rate"]
         self._fs[k] = reading.values["specific_force"]
@@ -104,15 +102,22 @@ class ImuBatch:
             samples: (n, 6) [angular_rate, specific_force] of each, copied in.
         """
         k, n = len(self.readings), len(readings)
-        while k + n > self._ts.shape[0]:
-            m = self._ts.shape[0]
-            self._ts = np.concatenate((self._ts, np.empty(m)))
-            self._ws = np.concatenate((self._ws, np.empty((m, 3))))
-            self._fs = np.concatenate((self._fs, np.empty((m, 3))))
+        if k + n > self._ts.shape[0]:
+            self._grow(k + n)
         self._ts[k : k + n] = ts
         self._ws[k : k + n] = samples[:, 0:3]
         self._fs[k : k + n] = samples[:, 3:6]
         self.readings.extend(readings)
+
+    def _grow(self, size: int) -> None:
+        """Room for ``size`` samples at least (doubling), the kept ones kept."""
+        m = self._ts.shape[0]
+        while m < size:
+            m *= 2
+        k = len(self.readings)
+        ts, ws, fs = np.empty(m), np.empty((m, 3)), np.empty((m, 3))
+        ts[:k], ws[:k], fs[:k] = self._ts[:k], self._ws[:k], self._fs[:k]
+        self._ts, self._ws, self._fs = ts, ws, fs
 
     def flush(self) -> None:
         """Integrate every kept sample, in order, as :meth:`Eskf.predict_reading` would."""

@@ -222,6 +222,19 @@ class Navigator:
             return self._compass(reading)
         return None
 
+    def _keeps_imu(self, sensor: str) -> bool:
+        """Whether this navigator's own paths keep ``sensor``'s samples in a batch (the fan-outs').
+
+        A subclass that takes readings its own way is left to :meth:`on_reading`.
+        """
+        cls = type(self)
+        return (
+            cls.on_reading is Navigator.on_reading
+            and cls._on_imu is Navigator._on_imu
+            and self._batch is not None
+            and sensor == self.knowledge.imu
+        )
+
     @staticmethod
     def fan_out_imu(navigators: Iterable[Navigator], reading: Reading) -> bool:
         """Give one IMU reading to every navigator's batch at once, when none must act on it.
@@ -237,10 +250,7 @@ class Navigator:
         t = reading.t
         for nav in navs:
             if (
-                type(nav).on_reading is not Navigator.on_reading  # a subclass takes its own path
-                or type(nav)._on_imu is not Navigator._on_imu
-                or nav._batch is None
-                or reading.sensor != nav.knowledge.imu
+                not nav._keeps_imu(reading.sensor)
                 or t <= nav._t_imu
                 or (nav.config.gravity_aiding and t >= nav._next_gravity_t - _DUE_TOL_S)
             ):
@@ -264,14 +274,7 @@ class Navigator:
         """
         n = len(times)
         for nav in navigators:
-            if (
-                type(nav).on_reading is not Navigator.on_reading
-                or type(nav)._on_imu is not Navigator._on_imu
-                or nav._batch is None
-                or sensor != nav.knowledge.imu
-                or not times
-                or times[0] <= nav._t_imu
-            ):
+            if not nav._keeps_imu(sensor) or not times or times[0] <= nav._t_imu:
                 return 0
             if nav.config.gravity_aiding:
                 due = nav._next_gravity_t - _DUE_TOL_S

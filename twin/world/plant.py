@@ -282,10 +282,14 @@ class Plant:
         self.current.step(dt_s)
         self._sync()
         if not math.isfinite(d.qpos[self._qpos + 2]) or not math.isfinite(d.qvel[self._dof]):
-            raise FloatingPointError(
-                f"physics diverged at t = {d.time:.3f} s (non-finite state); "
-                "check the scenario's speeds and the time step"
-            )
+            raise self.diverged()
+
+    def diverged(self) -> FloatingPointError:
+        """The error of a state gone non-finite (``step``'s, and the quiet steps' kernel's)."""
+        return FloatingPointError(
+            f"physics diverged at t = {self.data.time:.3f} s (non-finite state); "
+            "check the scenario's speeds and the time step"
+        )
 
     def _sync(self) -> None:
         """Positions/velocities (``mj_step1``), the wrench, then accelerations and sensors."""

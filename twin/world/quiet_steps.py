@@ -108,7 +108,6 @@ class QuietSteps:
         self._static: tuple[Any, ...] = ()
         self._static_for: object = None
         self._normals = np.empty((16, 3, 6))
-        self._times = np.empty(16)
 
     @property
     def imu_name(self) -> str | None:
@@ -220,9 +219,8 @@ class QuietSteps:
         n = len(times)
         plant, suite, imu = self.plant, self.suite, self._imu
         assert isinstance(imu, Imu) and self._imu_index is not None
-        if n > self._times.shape[0]:
+        if n > self._normals.shape[0]:
             self._normals = np.empty((n, 3, 6))
-            self._times = np.empty(n)
         raw = (command.rudder_rad, command.stern_rad, command.propeller_rps)
         limiter = plant.limiter
         if not (math.isfinite(raw[0]) and math.isfinite(raw[1]) and math.isfinite(raw[2])):
@@ -235,15 +233,12 @@ class QuietSteps:
         gm = imu._errors.gm
         done = quiet_steps_kernel.fly(
             *self._static_args(), n, plant.t, np.array(raw, dtype=np.float64), last,
-            imu._t_last, gm._phi.reshape(6), gm._q.reshape(6), normals, out, self._times,
+            imu._t_last, gm._phi.reshape(6), gm._q.reshape(6), normals, out,
         )  # fmt: skip
         limiter._last = (float(last[0]), float(last[1]), float(last[2]))
         d = plant.data
         if done < n:
-            raise FloatingPointError(
-                f"physics diverged at t = {d.time:.3f} s (non-finite state); "
-                "check the scenario's speeds and the time step"
-            )
+            raise plant.diverged()
         if float(d.time) != times[-1]:
             raise RuntimeError(
                 f"quiet steps: MuJoCo's clock reads {float(d.time)!r} after {n} steps, the block "

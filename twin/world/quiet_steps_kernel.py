@@ -84,7 +84,7 @@ def fly(  # type: ignore[no-untyped-def]
     radius, minv, rhs,
     gyro, accel, linvel, site_pos, c_sn, earth_terms, e_consts, block, turn_on, gm_value,
     rw_value, rw_density, has_rw, white_sigma, white_value,
-    n, t, command, last, t_last, gm_phi, gm_q, normals, out, times,
+    n, t, command, last, t_last, gm_phi, gm_q, normals, out,
 ):  # fmt: skip
     """Fly ``n`` steps under one command; returns how many (fewer: the state went non-finite).
 
@@ -92,8 +92,7 @@ def fly(  # type: ignore[no-untyped-def]
     data; :meth:`Plant.step`'s and :meth:`Imu.sample`'s, named as there). ``t`` is MuJoCo's
     clock before the first step: each step adds ``dt`` to it as ``mj_step2`` does (the caller
     checks the clock it reads back). Per step ``k``: the limited command into ``ctrl`` (``last``
-    updated), physics, then the IMU's sample from ``normals[k]`` (3, 6) into ``out[k]`` (6,) and
-    its time into ``times[k]``.
+    updated), physics, then the IMU's sample from ``normals[k]`` (3, 6) into ``out[k]`` (6,).
     """
     for k in range(n):
         # CommandLimiter.__call__
@@ -126,6 +125,5 @@ def fly(  # type: ignore[no-untyped-def]
             gm_phi, gm_q, rw_value, rw_density, t - t_last, has_rw, white_sigma, white_value,
             normals[k],
         )  # fmt: skip
-        times[k] = t
         t_last = t
     return n
