@@ -325,6 +325,42 @@ def test_jpeg_images_read_back_in_their_own_colours(tmp_path: Path) -> None:
         assert np.abs(got.astype(int) - want.astype(int)).mean() < 8
 
 
+def test_buffered_images_and_points_read_back_one_row_per_call_in_time_order(
+    tmp_path: Path,
+) -> None:
+    """Images and image-space points wait for the flush: every call is still its own row, at its
+    own time, with its own points (a marker cleared by an empty call), labels and colours."""
+    import cv2
+
+    imgs = [np.full((8, 12), 40 * k, np.uint8) for k in range(4)]
+    with Recorder(tmp_path / "b.rrd", recording_id="b", start_utc=START, flush_every_s=1.5) as rec:
+        for k, img in enumerate(imgs):
+            rec.log_image("/cam", 0.5 * k, img)
+            pts = np.zeros((0, 2)) if k == 2 else np.array([[k + 0.25, 2.0 * k]])
+            rec.log_points2d("/cam/sun", 0.5 * k, pts, color=(10 * k, 2, 3), label="true sun")
+        rec.log_points2d("/cam/two", 0.5, np.array([[1.0, 2.0], [3.0, 4.0]]))
+    store = RrdReader(tmp_path / "b.rrd").store()
+    table = _table(store, "/cam")
+    assert list(_ns(table)) == [round(0.5e9 * k) for k in range(4)]
+    for row, want in zip(table.column("EncodedImage:blob").to_pylist(), imgs, strict=True):
+        got = cv2.imdecode(np.frombuffer(bytes(row[0]), np.uint8), cv2.IMREAD_UNCHANGED)
+        assert abs(float(got.mean()) - float(want.mean())) < 2
+    sun = _table(store, "/cam/sun")
+    assert list(_ns(sun)) == [round(0.5e9 * k) for k in range(4)]
+    positions = sun.column("Points2D:positions").to_pylist()
+    assert [len(p) for p in positions] == [1, 1, 0, 1]
+    assert positions[3] == [[3.25, 6.0]]
+    assert sun.column("Points2D:labels").to_pylist()[1] == ["true sun"]
+    assert sun.column("Points2D:radii").to_pylist()[0] == [4.0]
+    colours = sun.column("Points2D:colors").to_pylist()
+    assert colours[1] == [(10 << 24) | (2 << 16) | (3 << 8) | 255]
+    two = _table(store, "/cam/two")
+    assert two.column("Points2D:positions").to_pylist() == [[[1.0, 2.0], [3.0, 4.0]]]
+    assert "Points2D:labels" not in two.column_names or two.column(
+        "Points2D:labels"
+    ).to_pylist() == [None]
+
+
 def test_raw_images_when_jpeg_disabled(tmp_path: Path) -> None:
     with Recorder(tmp_path / "raw.rrd", recording_id="r", start_utc=START, jpeg_quality=None) as r:
         r.log_image("/camera/chase", 0.0, np.zeros((4, 6), dtype=np.uint8))
