@@ -107,14 +107,14 @@ mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
 sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
     navigation=dataclasses.replace(sc.navigation, variants=tuple(a["variants"])))
 with tempfile.TemporaryDirectory() as d:
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     m = run_scenario(sc, d, camera=False, record=a["record"])
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     rrd = os.path.join(d, "recording.rrd")
     size = os.path.getsize(rrd) if os.path.exists(rrd) else 0
 outputs = {k: v for k, v in m.items()
            if k not in ("wall_time_s", "real_time_factor", "provenance", "versions", "recording")}
-print(json.dumps({"wall_s": wall, "sim_s": m["sim_time_s"], "rrd_mb": size / 1e6,
+print(json.dumps({"wall_s": wall, "cpu_s": cpu, "sim_s": m["sim_time_s"], "rrd_mb": size / 1e6,
                   "frames": m["sensor_readings"].get("polarimeter", 0),
                   "stages_s": dict(acc), "outputs": outputs}, default=str))
 """
@@ -203,8 +203,11 @@ def main() -> int:
                           f"{r['wall_s']:.1f} s", file=sys.stderr)  # fmt: skip
             for name in trees:
                 row = _median_row(runs[name])
+                cpus = sorted(r["cpu_s"] for r in runs[name])
                 row.update(variants=list(variants), recording=record,
-                           walls_s=[round(r["wall_s"], 2) for r in runs[name]])  # fmt: skip
+                           walls_s=[round(r["wall_s"], 2) for r in runs[name]],
+                           cpus_s=[round(r["cpu_s"], 2) for r in runs[name]],
+                           cpu_median_s=cpus[len(cpus) // 2])  # fmt: skip
                 results[name].append(row)
     finally:
         if args.baseline and tmp is not None:
@@ -239,6 +242,12 @@ def main() -> int:
     return 0
 
 
+def _cpu(row: dict[str, Any]) -> str:
+    """The median CPU time and its real-time factor, or "–" for rows from before it was kept."""
+    cpu = row.get("cpu_median_s")
+    return "–" if cpu is None else f"{cpu:.1f} ({row['sim_s'] / cpu:.1f}x)"
+
+
 def _share(secs: float, row: dict[str, Any]) -> str:
     return f"{secs:.2f} ({100 * secs / row['wall_s']:.0f} %)"
 
@@ -261,8 +270,8 @@ def _report(results: dict[str, list[dict[str, Any]]], meta: dict[str, Any]) -> l
         f"- {'; '.join(pv.describe(meta['provenance']))}",
         "",
         "| code | filter variants | recording | sim s | wall s | real-time factor | frames "
-        "| .rrd |",
-        "|---|---|---|---|---|---|---|---|",
+        "| .rrd | CPU s (its real-time factor) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for i in range(len(ROWS)):
         for name in names:
@@ -270,10 +279,14 @@ def _report(results: dict[str, list[dict[str, Any]]], meta: dict[str, Any]) -> l
             md.append(
                 f"| {name} | {', '.join(r['variants'])} | {'on' if r['recording'] else 'off'} | "
                 f"{r['sim_s']:.0f} | {r['wall_s']:.1f} | **{r['sim_s'] / r['wall_s']:.1f}x** | "
-                f"{r['frames']} | {r['rrd_mb']:.1f} MB |"
+                f"{r['frames']} | {r['rrd_mb']:.1f} MB | {_cpu(r)} |"
             )
     firsts = [results[n][0] for n in names]
     md += [
+        "",
+        "CPU s: the process's CPU time over the run (all its threads; the median of the runs), "
+        "which the VM's stolen time and the other processes do not count in: the steadier of the "
+        "two where the rows are a few per cent apart.",
         "",
         "Targets (issue #31): three variants, no recording >= 100x; with the recording >= 60x.",
         "",
