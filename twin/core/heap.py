@@ -2,13 +2,13 @@
 
 By the time a run flies, the process holds ~250 000 objects that live as long as it does (the
 imported modules, MuJoCo's bindings, the light-field tables, numba's dispatchers). CPython's
-oldest-generation pass walks every one of them each time it runs: ~130 ms on this project's
-2-core VM (measured by ``gc.callbacks`` in a sea trial), a few times in a recorded 10-minute
-trial, whose recorder keeps 5 s of samples in Python lists. :func:`gc.freeze` moves them to the
-permanent generation, which no pass walks; the objects the flight makes are collected as before,
-and :func:`gc.unfreeze` at the end hands the start-up objects back (a campaign worker's earlier
-runs' leftovers among them), so nothing a later run drops stays uncollectable. The numbers a run
-computes do not depend on when the collector runs.
+oldest-generation pass walks every one of them each time it runs: once in a 10-minute sea
+trial, 124–129 ms of its 13–17 s (measured by ``gc.callbacks`` on this project's 2-core VM,
+with and without the recording; frozen, the pass took 0–4 ms). :func:`gc.freeze` moves them to
+the permanent generation, which no pass walks; the objects the flight makes are collected as
+before, and :func:`gc.unfreeze` at the end hands the start-up objects back (a campaign worker's
+earlier runs' leftovers among them), so nothing a later run drops stays uncollectable. The
+numbers a run computes do not depend on when the collector runs.
 """
 
 from __future__ import annotations
