@@ -10,7 +10,7 @@ import pytest
 
 from tests.scenario_helpers import minimal_scenario
 from twin.app import run as run_mod
-from twin.core.heap import start_up_frozen
+from twin.app.heap import start_up_frozen
 
 
 def test_the_block_runs_frozen_and_unfreezes_after_it_even_on_an_error() -> None:

@@ -30,8 +30,8 @@ import mujoco
 import numpy as np
 
 from scenarios.schema import Scenario
+from twin.app.heap import start_up_frozen
 from twin.core.ephemeris import NIGHT_ELEVATION_DEG, sun_position
-from twin.core.heap import start_up_frozen
 from twin.record.blueprint import default_blueprint
 from twin.record.mcap_log import FILE as MCAP_FILE
 from twin.record.mcap_log import McapLog
@@ -192,7 +192,7 @@ def run_scenario(
         bar = _progress(scenario.duration_s, progress)
         if rec is not None:
             log_scene(rec, world)
-        with start_up_frozen():  # the full GC passes skip the start-up heap (twin/core/heap.py)
+        with start_up_frozen():  # the full GC passes skip the start-up heap (twin/app/heap.py)
             status_text = _loop(world, scorer, recorder, bar)
     except KeyboardInterrupt:
         status_text, error = "interrupted", "KeyboardInterrupt"
