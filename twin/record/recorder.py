@@ -5,7 +5,7 @@ A simulator that must run at >= 100x real time cannot afford ``rr.log`` per 100 
 Python lists instead (about 1.5 us per call) and, every ``flush_every_s`` of *sim* time, turns each
 list into numpy columns and writes them with ``rr.send_columns``: one chunk per entity per flush.
 JPEG images and image-space points are buffered the same way: ``rr.log`` of an
-``EncodedImage`` costs ~0.3 ms (a column of them ~0.06 ms an image, measured with Rerun 0.41),
+``EncodedImage`` costs 0.3–0.7 ms (a column of them ~0.06 ms an image, measured with Rerun 0.41),
 three images a polarimeter frame. Raw images and text are rare and go straight to ``rr.log``.
 
 Timelines: ``sim_time`` (duration, integer nanoseconds of sim time) and ``utc`` (timestamp,
