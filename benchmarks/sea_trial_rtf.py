@@ -283,12 +283,19 @@ def _report(results: dict[str, list[dict[str, Any]]], meta: dict[str, Any]) -> l
                 f"{r['frames']} | {r['rrd_mb']:.1f} MB | {_cpu(r)} |"
             )
     firsts = [results[n][0] for n in names]
+    gaps = [
+        abs(w - c) / w
+        for n in names
+        for r in results[n]
+        for w, c in zip(r["walls_s"], r.get("cpus_s", r["walls_s"]), strict=True)
+    ]
     md += [
         "",
         "CPU s: the CPU time of the run (the process's threads and the child processes it waited "
-        "for, the recording's compaction; the median of the runs), which the VM's stolen time and "
-        "the other processes do not count in: the steadier of the two where the rows are a few "
-        "per cent apart.",
+        "for, the recording's compaction; the median of the runs), which time stolen by the VM's "
+        f"host and waits do not count in. Here it is within {100 * max(gaps):.1f} % of the wall "
+        "time in every run: where the runs of a row differ, the core itself ran slower, and the "
+        "CPU time differs as much.",
         "",
         "Targets (issue #31): three variants, no recording >= 100x; with the recording >= 60x.",
         "",
