@@ -1,8 +1,10 @@
 """Quiet physics steps, compiled: :meth:`Plant.step` and the IMU's sample, many steps in one call.
 
-Most steps of a run carry the IMU's sample alone (80 of 100 a simulated second in a sea trial).
-Flown one by one from Python each costs ~50 µs, of which MuJoCo and the kernels take ~13 µs
-(``benchmarks/results/sea_trial_profile.md``). :func:`fly` runs a block of them in one call:
+Most steps of a run carry the IMU's sample alone (90 of 100 a simulated second in a sea trial,
+one of them also delivering the depth gauge's reading sampled before).
+Flown one by one from Python each cost ~50 µs, of which MuJoCo and the kernels took ~13 µs
+(``benchmarks/results/sea_trial_profile.md`` before these blocks, at 57e688b; a block's step
+costs ~32 µs now, its depth updates included). :func:`fly` runs a block of them in one call:
 per step the command limiter's arithmetic, ``mj_step2``, ``mj_step1``, the hydrodynamic wrench
 (:func:`twin.world.hydrodynamics_kernel.body_wrench`), ``mj_forwardSkip`` and the IMU's sample
 (:func:`sensors.imu_kernel.sample`), in :meth:`Plant.step`'s and :meth:`Imu.sample`'s order, on
