@@ -37,7 +37,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.chain_kernel import cos_in_air, fresnel_in
+from sensors.polarimeter.chain_kernel import cos_in_air
+from sensors.polarimeter.chain_passes import fresnel_in
 from sensors.polarimeter.optics.blocks import world_components
 from sensors.polarimeter.optics.column_kernel import _atan2_pos
 from twin.core.arrays import FloatArray
@@ -155,7 +156,7 @@ def interpolate_pixels(x, y, z, ca, n, basis, column, up_c, north_c, grid, row_c
 
     The grid's first three channels are the transmitted sky light before the Fresnel factors
     (their inverse applied at the node), the last three the scattered light; the pixel's own
-    Fresnel factors (:func:`chain_kernel.fresnel_in`'s, with two divisions fewer) turn the
+    Fresnel factors (:func:`chain_passes.fresnel_in`'s, with two divisions fewer) turn the
     first back into the direct light. fastmath: this is an interpolation, not a reference (its
     rounding is ~1e-16 against its ~1e-3 interpolation error). Args (in order): x, y, z ((m,)
     float32 world look components); ca ((m,) float32 c_a, at least ``row_cos[0]``); n (the
@@ -208,7 +209,7 @@ def interpolate_pixels(x, y, z, ca, n, basis, column, up_c, north_c, grid, row_c
         v3 = w00 * a[3] + w01 * b[3] + w10 * d[3] + w11 * e[3]
         v4 = w00 * a[4] + w01 * b[4] + w10 * d[4] + w11 * e[4]
         v5 = w00 * a[5] + w01 * b[5] + w10 * d[5] + w11 * e[5]
-        # The flat sea's Fresnel transmission at this pixel: chain_kernel.fresnel_in's formula
+        # The flat sea's Fresnel transmission at this pixel: chain_passes.fresnel_in's formula
         # with two reciprocals for its three divisions (fresnel_in inlined here, and the lens
         # rotation shared with the chain, cost 13–15 ns a pixel more, measured interleaved).
         mu = max(float(z[i]), 0.0)

@@ -17,7 +17,7 @@ import pytest
 import test_light_limits as limits
 import test_render_fast as scenes
 
-from sensors.polarimeter import chain_kernel, fast_path
+from sensors.polarimeter import chain_kernel, chain_passes, fast_path
 from sensors.polarimeter import window_grid as wg
 from sensors.polarimeter.optics.blocks import world_components
 from sensors.polarimeter.render import Polarimeter
@@ -85,7 +85,7 @@ def test_node_values_undo_the_fresnel_factors_the_pixels_put_back():
     scat = rng.uniform(0.0, 0.5, (rows, 16, 3))
     ca = grid.row_cos[:rows].tolist()
     mu = grid.rays[: rows * 16 : 16, 2].astype(np.float64).tolist()
-    f = chain_kernel.fresnel_in.py_func
+    f = chain_passes.fresnel_in.py_func
     m = np.array([f(n, n * n, c, v) for c, v in zip(ca, mu, strict=True)])
     m00, m01, m22 = (m[:, k][:, None] for k in range(3))
     direct = np.stack(
