@@ -10,10 +10,13 @@ cannot prove apart from its loads. So a block of :data:`BLOCK` rays goes through
 1. :func:`_index_pass` (vectorised): where each ray reads the tables. The phase table's node,
    the frame field's coordinates, and each table's row as a *count* of the row cosines at or
    above the ray's (``column_kernel._row``'s binary search's answer, without its branches).
-2. :func:`_gather_pass` (scalar): the table reads, the exponentials and arc cosine, the aureole
-   near the sun and the lens's sensor axes, into a block scratch.
-3. :func:`_arithmetic_pass` (vectorised): single scattering along the ray and its mirror, the
-   surface's reflection, the sky's polarization, the Fresnel transmission, the lens's rotation.
+2. :func:`_gather_pass` (scalar): the table reads, the aureole near the sun and the lens's
+   sensor axes, into a block scratch.
+3. :func:`_arithmetic_pass` (vectorised): the transmittance, single scattering along the ray and
+   its mirror, the surface's reflection, the sky (its radiance and polarization), the Fresnel
+   transmission, the lens's rotation. Its exponentials and arc cosine are polynomials
+   (:func:`_exp_neg`, :func:`_acos`: libm's are calls, which LLVM does not vectorise), within
+   3e-13 of libm's (``tests/sensors/polarimeter/test_chain_passes.py``).
 4. :func:`_candidate_pass` (scalar): the few rays that may see the solar disc.
 
 The scratch is one flat float64 array, row r of the block at ``r * BLOCK``: every access in a
@@ -29,11 +32,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from sensors.polarimeter.optics.column_kernel import _atan2_pos, aureole_at
 from twin.core.kernel_cache import njit
 
 #: Rays a pass works on at a time: the block's scratch (:data:`SCRATCH_ROWS` × this × 8 bytes,
-#: 39 KB) stays in the core's first caches between the passes.
+#: 37 KB) stays in the core's first caches between the passes.
 BLOCK = 128
 
 # The scratch's rows. Filled by the index pass:
@@ -44,21 +49,19 @@ _AZ = 5  # 5–7: the field's azimuth column (a float, not yet clamped), its fra
 _CNT = 8  # how many row cosines of the field (inside or outside the window) are ≥ _CZT
 _CUP = 9  # how many row cosines of the upwelling light are ≥ −v_z
 # By the gather pass:
-_T = 10  # transmittance from the surface, e^(−c z / v_z) (0 looking down)
-_G = 11  # single scattering's path factor (column_kernel._single's g)
-_PH = 12  # 12–15: β, m12, m22, m33 at the ray's scattering angle (0 without a lit beam)
-_RPH = 16  # 16–19: the same along v' (0 where the reflection is not added)
-_TAB = 20  # 20–22: the field's light and the aureole (I, Q, U)
-_UP = 23  # 23–25: the field's upwelling light at the surface along v' (0: not added)
-_REF = 26  # 1: the surface's reflection of the upwelling light is added
-_RAD = 27  # the sky's radiance along the window's sky direction (0: the sky does not reach it)
-_CG = 28  # the cosine of that direction's angle from the sun
-_LIT = 29  # 1: the sky reaches the ray (inside the window, not occluded)
-_LENS = 30  # 30–32: the lens rotation's projections cc, ss and their squared norm
-# By the arithmetic pass:
-_OUT = 33  # 33–35: the sensor-plane Stokes (photons/s); 36–38: its scattered part alone
+_PH = 10  # 10–13: β, m12, m22, m33 at the ray's scattering angle (0 without a lit beam)
+_RPH = 14  # 14–17: the same along v' (0 where the reflection is not added)
+_TAB = 18  # 18–20: the field's light and the aureole (I, Q, U)
+_UP = 21  # 21–23: the field's upwelling light at the surface along v' (0: not added)
+_REF = 24  # 1: the surface's reflection of the upwelling light is added
+_LIT = 25  # 1: the sky reaches the ray (inside the window, not occluded)
+_LENS = 26  # 26–28: the lens rotation's projections cc, ss and their squared norm
+# By the arithmetic pass (the candidate pass reads _T and _CG):
+_T = 29  # transmittance from the surface, e^(−c z / v_z) (0 looking down)
+_CG = 30  # the cosine of the window's sky direction's angle from the sun (−2: no sky)
+_OUT = 31  # 31–33: the sensor-plane Stokes (photons/s); 34–36: its scattered part alone
 #: Rows of the scratch ``w`` (``SCRATCH_ROWS * BLOCK`` float64) that :func:`chain_points` takes.
-SCRATCH_ROWS = 39
+SCRATCH_ROWS = 37
 
 
 @njit(cache=True, inline="always")
@@ -71,6 +74,50 @@ def _at(w, row, j):
 def _put(w, row, j, value):
     """Set row ``row`` of the block scratch at ray ``j``."""
     w[row * BLOCK + j] = value
+
+
+#: asin's Taylor coefficients (2n)! / (4ⁿ (n!)² (2n + 1)), n = 0…23: on [0, ½] the 24th term is
+#: below 1e-16 of the sum.
+_ASIN_TAYLOR = np.array(
+    [math.factorial(2 * n) / (4**n * math.factorial(n) ** 2 * (2 * n + 1)) for n in range(24)]
+)
+#: 1/n, n = 0…16, for :func:`_exp_neg`'s Taylor polynomial (a product, not a division).
+_INV_N = np.array([0.0] + [1.0 / n for n in range(1, 17)])
+
+
+@njit(cache=True, inline="always")
+def _exp_neg(x):
+    """e^x for x ≤ 0 in arithmetic alone (vectorisable), within 3e-13 relative; 0 below −700.
+
+    e^x = (e^(x/1024))^1024: the Taylor polynomial of degree 16 at |x/1024| ≤ 0.69 (remainder
+    < 1e-17), squared ten times (which multiplies its rounding by ~1000). e^−700 ≈ 1e−304.
+    """
+    y = max(x, -700.0) * (1.0 / 1024.0)
+    p = 1.0
+    for n in range(16, 0, -1):
+        p = 1.0 + p * y * _INV_N[n]
+    for _ in range(10):
+        p = p * p
+    return p if x >= -700.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _acos(x):
+    """The arc cosine on [−1, 1] in arithmetic alone (vectorisable), within 5e-16 absolute.
+
+    acos |x| = π/2 − asin |x| for |x| ≤ ½, else 2 asin √((1 − |x|)/2); asin on [0, ½] by its
+    Taylor series; acos(−x) = π − acos x.
+    """
+    ax = abs(x)
+    big = ax > 0.5
+    z = math.sqrt(max(0.5 - 0.5 * ax, 0.0)) if big else ax
+    t = z * z
+    p = _ASIN_TAYLOR[23]
+    for n in range(22, -1, -1):
+        p = p * t + _ASIN_TAYLOR[n]
+    s = z * p
+    r = 2.0 * s if big else 0.5 * math.pi - s
+    return math.pi - r if x < 0.0 else r
 
 
 @njit(cache=True, inline="always")
@@ -189,46 +236,27 @@ def _phase(luts, w, node, row, j):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, sky, up_c, north_c,
-                 n, k):  # fmt: skip
-    """The block's table reads and transcendentals (scalar: LLVM vectorises neither).
+def _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, up_c, north_c, k):
+    """The block's table reads (scalar: LLVM does not vectorise a read at a computed index).
 
     Rays ``lo`` to ``lo + BLOCK`` (or the end) of the whole arrays; ``sees`` is written here.
     """
-    (single, cz, _, sx, sy, sz, _, _, _, _, _, luts, has_field, f_in, t_in, f_out, t_out,
+    (single, _, _, sx, sy, sz, _, _, _, _, _, luts, has_field, f_in, t_in, f_out, t_out,
      cos_c_frame, _, _, cphi, sphi, agrid, apsi, dom, up, _) = k  # fmt: skip
-    ssx, ssy, ssz, a_c, b_c, c_c, d_c, e_c, edh = sky[:9]
     do_refl = has_field and up.shape[0] > 1
     do_aur = has_field and apsi.shape[0] > 1
     cos_aur = math.cos(apsi[apsi.shape[0] - 1]) if do_aur else 2.0
     any_occ = occluded.shape[0] > 0
-    mu_s = max(sz, 1e-3)
-    a1 = cz / mu_s
-    e_a1 = math.exp(-a1)
     for i in range(lo, min(lo + BLOCK, x.shape[0])):
         j = i - lo
         vx = float(x[i])
         vy = float(y[i])
         vz = float(z[i])
-        e_a2 = math.exp(-cz / vz) if vz > 0.0 else 0.0
-        _put(w, _T, j, e_a2)
-        g = 0.0
         if single:
             _phase(luts, w, _PJ, _PH, j)
-            # column_kernel._single's path factor, its expm1 form near the sun's direction.
-            if vz > 0.0:
-                a2 = cz / vz
-                dm = max(abs(mu_s - vz), 1e-9)
-                if abs(a2 - a1) > 1e-3:
-                    g = abs(e_a1 - e_a2) / dm
-                else:
-                    g = math.exp(-min(a1, a2)) * (-math.expm1(-cz * dm / (mu_s * vz))) / dm
-            else:
-                g = e_a1 / (mu_s - vz)
         else:  # zero rows: the arithmetic pass adds zeros, without a branch
             for r in range(_PH, _PH + 4):
                 _put(w, r, j, 0.0)
-        _put(w, _G, j, g)
         refl = False
         if has_field:
             # scatter_pixels' field, aureole and reflection, at the index pass's nodes.
@@ -265,23 +293,10 @@ def _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, sky, up
             for r in range(_RPH, _RPH + 4):
                 _put(w, r, j, 0.0)
         _put(w, _REF, j, 1.0 if refl else 0.0)
-        # The CIE sky's radiance along a flat sea's window direction n v + (c_a − n v_z) ẑ.
-        ca = float(cos_air[i])
-        see = ca > 0.0
+        # Whether the sky reaches the ray: inside the window, not occluded.
+        see = float(cos_air[i]) > 0.0
         sees[i] = see
-        lit = see and not (any_occ and occluded[i] != 0)
-        rad = 0.0
-        cg = -2.0
-        if lit:
-            cg = n * vx * ssx + n * vy * ssy + ca * ssz
-            rad = e_c * cg * cg + (1.0 - c_c * edh)
-            if c_c != 0.0:
-                rad += c_c * math.exp(d_c * math.acos(min(max(cg, -1.0), 1.0)))
-            if a_c != 0.0:
-                rad *= 1.0 + a_c * math.exp(b_c / ca)
-        _put(w, _RAD, j, rad)
-        _put(w, _CG, j, cg)
-        _put(w, _LIT, j, 1.0 if lit else 0.0)
+        _put(w, _LIT, j, 1.0 if see and not (any_occ and occluded[i] != 0) else 0.0)
         # The lens's meridional mapping: up's projections on the sensor axes (North at the
         # exact zenith).
         jb = column[i]
@@ -357,20 +372,33 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
     Into the scratch's :data:`_OUT` rows, which it does not read. A frame without a lit beam has
     zero phase rows, so single scattering adds zeros here without a branch.
     """
-    c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z = k[2:11]
+    cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z = k[1:11]
     n_water = k[26]
-    ssx, ssy, ssz = sky[0], sky[1], sky[2]
-    sky_scale = sky[9]
-    pol = sky[9] * sky[10]
+    ssx, ssy, ssz, a_c, b_c, c_c, d_c, e_c, edh, sky_scale, dop_max = sky
+    pol = sky_scale * dop_max
     g = n * n  # the n² radiance law
     mu_s = max(sz, 1e-3)
     f = e_sun * mu_s / c
+    a1 = cz / mu_s
+    e_a1 = math.exp(-a1)  # the beam's attenuation to the camera's depth
     for j in range(x.shape[0]):
         vx = float(x[j])
         vy = float(y[j])
         vz = float(z[j])
-        a, b, d = _single(vx, vy, vz, w, _PH, _at(w, _G, j), sx, sy, sz, beam_q, r0x, r0y, r0z,
-                          f, j)  # fmt: skip
+        # The transmittance from the surface along v, and column_kernel._single's path factor:
+        # |e^(−a1) − e^(−a2)| / |μ_s − v_z| looking up, its series form where a2 ≈ a1 (there
+        # e^(−min(a1, a2)) (1 − e^(−x)) / |μ_s − v_z|, x = |a2 − a1|); e^(−a1)/(μ_s − v_z) down.
+        looks_up = vz > 0.0
+        vzp = vz if looks_up else 1.0
+        a2 = cz / vzp
+        e_a2 = _exp_neg(-a2) if looks_up else 0.0
+        _put(w, _T, j, e_a2)
+        dm = max(abs(mu_s - vz), 1e-9)
+        xx = cz * dm / (mu_s * vzp)
+        series = xx * (1.0 - xx * (0.5 - xx * (1.0 / 6.0 - xx * (1.0 / 24.0 - xx * (1.0 / 120.0)))))
+        g_up = abs(e_a1 - e_a2) / dm if abs(a2 - a1) > 1e-3 else max(e_a1, e_a2) * series / dm
+        g1 = g_up if looks_up else e_a1 / (mu_s - vz)
+        a, b, d = _single(vx, vy, vz, w, _PH, g1, sx, sy, sz, beam_q, r0x, r0y, r0z, f, j)
         si = _at(w, _TAB, j) + a
         sq = _at(w, _TAB + 1, j) + b
         su = _at(w, _TAB + 2, j) + d
@@ -382,7 +410,7 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         uu = _at(w, _UP + 2, j) + d
         # column_kernel.fresnel_up_meridian at incidence cosine v_z, attenuated to the camera.
         refl = _at(w, _REF, j) > 0.0
-        t = _at(w, _T, j)
+        t = e_a2
         cos_t = math.sqrt(max(1.0 - n_water * n_water * (1.0 - vz * vz), 0.0))
         ias = 1.0 / (n_water * vz + cos_t + (0.0 if refl else 1.0))
         iap = 1.0 / (vz + n_water * cos_t + (0.0 if refl else 1.0))
@@ -405,11 +433,17 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         # The sky's Rayleigh polarization (reference North at the exact zenith), through the
         # flat sea's Fresnel transmission, times the transmittance.
         lit = _at(w, _LIT, j) > 0.0
-        rad = _at(w, _RAD, j)
         ca = float(cos_air[j])
         px = n * vx
         py = n * vy
         hh = px * ssx + py * ssy
+        # The CIE sky's radiance (sky.py's gradation and indicatrix; the 15 types' b, d < 0).
+        cg = hh + ca * ssz
+        _put(w, _CG, j, cg if lit else -2.0)
+        rad = e_c * cg * cg + (1.0 - c_c * edh)
+        rad += c_c * _exp_neg(d_c * _acos(min(max(cg, -1.0), 1.0)))
+        rad *= 1.0 + a_c * _exp_neg(b_c / (ca if lit else 1.0))
+        rad = rad if lit else 0.0
         rho2 = px * px + py * py
         zen = rho2 == 0.0
         pa = -ssx if zen else py * ssx - px * ssy
@@ -490,8 +524,7 @@ def chain_points(
     for lo in range(0, m, BLOCK):
         hi = min(lo + BLOCK, m)
         _index_pass(x[lo:hi], y[lo:hi], z[lo:hi], w, k)
-        _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, sky, up_c, north_c,
-                     n, k)  # fmt: skip
+        _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, up_c, north_c, k)
         _arithmetic_pass(x[lo:hi], y[lo:hi], z[lo:hi], cos_air[lo:hi], w, sky, n, scale, k)
         for j in range(hi - lo):
             for c in range(3):

@@ -109,3 +109,25 @@ def test_a_chain_of_blocks_equals_the_chain_ray_by_ray(m):
         assert np.array_equal(one[0], whole[i]) and s1[0] == sees[i]
         assert sc1 is not None and np.array_equal(sc1[0], scat[i])
     assert chain_kernel.applies(cam.optics.sky, SUN)
+
+
+def test_the_polynomial_exponential_and_arc_cosine_are_libms_to_3e_13():
+    """The arithmetic pass's e^x (x ≤ 0) and arccos, against numpy's, ends and branch points in."""
+    import numba
+
+    @numba.njit
+    def both(x, xe, a, e):
+        for i in range(x.shape[0]):
+            a[i] = cp._acos(x[i])
+        for i in range(xe.shape[0]):
+            e[i] = cp._exp_neg(xe[i])
+
+    x = np.concatenate([np.linspace(-1.0, 1.0, 100_001), [0.5, -0.5, np.nextafter(0.5, 1.0)]])
+    xe = np.concatenate([-np.logspace(-14, np.log10(699.9), 100_001), [0.0, -1e-300, -700.0]])
+    a, e = np.empty_like(x), np.empty_like(xe)
+    both(x, xe, a, e)
+    assert np.max(np.abs(a - np.arccos(x))) < 1e-15
+    assert np.max(np.abs(e - np.exp(xe)) / np.exp(xe)) < 3e-13
+    e2 = np.empty(3)
+    both(x[:0], np.array([-700.5, -1e4, -np.inf]), a[:0], e2)
+    assert np.all(e2 == 0.0)  # below e^−700 ≈ 1e−304: zero, as libm's underflow nearly is
