@@ -403,8 +403,10 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         sq = _at(w, _TAB + 1, j) + b
         su = _at(w, _TAB + 2, j) + d
         # Along the mirror v', looking down: only e^(−a1) enters, at c z = 0 (column_kernel).
-        a, b, d = _single(vx, vy, -vz, w, _RPH, 1.0 / (mu_s + vz), sx, sy, sz, beam_q, r0x,
-                          r0y, r0z, f, j)  # fmt: skip
+        # (Its phase rows are zero where the reflection is not added: there its factor need
+        # only be finite, and μ_s + v_z may be 0 looking down.)
+        g2 = 1.0 / (mu_s + vz if vz > 0.0 else 1.0)
+        a, b, d = _single(vx, vy, -vz, w, _RPH, g2, sx, sy, sz, beam_q, r0x, r0y, r0z, f, j)
         ui = _at(w, _UP, j) + a
         uq = _at(w, _UP + 1, j) + b
         uu = _at(w, _UP + 2, j) + d
@@ -412,8 +414,8 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         refl = _at(w, _REF, j) > 0.0
         t = e_a2
         cos_t = math.sqrt(max(1.0 - n_water * n_water * (1.0 - vz * vz), 0.0))
-        ias = 1.0 / (n_water * vz + cos_t + (0.0 if refl else 1.0))
-        iap = 1.0 / (vz + n_water * cos_t + (0.0 if refl else 1.0))
+        ias = 1.0 / (n_water * vz + cos_t if refl else 1.0)  # (rays without it: any finite)
+        iap = 1.0 / (vz + n_water * cos_t if refl else 1.0)
         rs = (n_water * vz - cos_t) * ias
         rp = (vz - n_water * cos_t) * iap
         ra = 0.5 * (rp * rp + rs * rs)
