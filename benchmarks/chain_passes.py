@@ -5,8 +5,8 @@ vectorised by LLVM. Until c227c6f the kernel was one scalar loop per ray
 (``chain_kernel.chain_points`` calling ``column_kernel.scatter_pixels``). This script loads that
 revision's ``chain_kernel.py`` from git (its imports are today's modules, which it shares
 unchanged), renders the same rays through both in the same process, on one core, and gives the
-time per ray (best of ``--repeats``, the two kernels' rounds interleaved) and the largest
-differences of their float32 Stokes.
+time per ray (perf_counter, best of ``--repeats``, the two kernels' rounds interleaved) and the
+largest differences of their float32 Stokes.
 
 The rays: those the fast path sends through the exact chain in a 612×512 frame (its coarse
 grid's points and its rough cells' exact pixels), in two scenes: a level camera at 10 m in
