@@ -1,6 +1,6 @@
 """The exact chain's kernel in vectorised passes against the scalar kernel it replaced (#31).
 
-``sensors/polarimeter/chain_passes.py`` renders a block of rays in four passes, two of them
+``sensors/polarimeter/chain_passes.py`` renders a block of rays in five passes, three of them
 vectorised by LLVM. Until c227c6f the kernel was one scalar loop per ray
 (``chain_kernel.chain_points`` calling ``column_kernel.scatter_pixels``). This script loads that
 revision's ``chain_kernel.py`` from git (its imports are today's modules, which it shares

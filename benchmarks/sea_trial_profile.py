@@ -420,7 +420,7 @@ def _report(row: dict[str, Any], meta: dict[str, Any]) -> list[str]:
             f"The exact chain rendered {n_rays / frames:,.0f} rays a frame (the coarse grid's "
             f"points and the rough cells' pixels) at {1e9 * chain / n_rays:.0f} ns a ray "
             "(the scattering kernel's single scattering, table light, aureole and the surface's "
-            "reflection, the sky, Fresnel, the lens, in one compiled kernel, four passes a block "
+            "reflection, the sky, Fresnel, the lens, in one compiled kernel, five passes a block "
             "of rays: sensors/polarimeter/chain_passes.py): "
             f"{1e3 * chain / frames:.1f} ms of the frame's {1e3 * frame / frames:.1f}.",
         ]

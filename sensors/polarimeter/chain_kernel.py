@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import chndtr
 
-from sensors.polarimeter.chain_passes import BLOCK, SCRATCH_ROWS, chain_points
+from sensors.polarimeter.chain_passes import ROW, SCRATCH_ROWS, chain_points
 from sensors.polarimeter.optics import sky as sky_mod
 from sensors.polarimeter.optics.blocks import world_components
 from sensors.polarimeter.optics.sun import NIGHT_ELEVATION_RAD
@@ -94,7 +94,7 @@ def render_points(
     resp = np.empty((m, 3), dtype=np.float64)
     occ = np.empty(0, dtype=np.uint8) if occluded is None else occluded.view(np.uint8)
     scale = float(np.float32(photon_scale))
-    w = np.empty(SCRATCH_ROWS * BLOCK, dtype=np.float64)
+    w = np.empty(SCRATCH_ROWS * ROW, dtype=np.float64)
     nc = chain_points(
         x, y, z, cos_air, occ, basis[0], basis[1], out, scat, sees, cand, chi, resp,
         float(n_water), sky_t, cos_reach, c[2].copy(), c[1].copy(), scale, w, column_args,

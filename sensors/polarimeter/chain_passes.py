@@ -5,23 +5,28 @@
 transmission and the lens's rotation give it (:mod:`sensors.polarimeter.chain_kernel` has the
 chain and its reference). Done a ray at a time that is scalar code: LLVM does not vectorise a
 loop that reads a table at a computed index, nor one that calls ``exp``, nor one whose stores it
-cannot prove apart from its loads. So a block of :data:`BLOCK` rays goes through four passes:
+cannot prove apart from its loads. So a block of :data:`BLOCK` rays goes through five passes:
 
 1. :func:`_index_pass` (vectorised): where each ray reads the tables. The phase table's node,
    the frame field's coordinates, and each table's row as a *count* of the row cosines at or
    above the ray's (``column_kernel._row``'s binary search's answer, without its branches).
 2. :func:`_gather_pass` (scalar): the table reads, the aureole near the sun and the lens's
    sensor axes, into a block scratch.
-3. :func:`_arithmetic_pass` (vectorised): the transmittance, single scattering along the ray and
-   its mirror, the surface's reflection, the sky (its radiance and polarization), the Fresnel
-   transmission, the lens's rotation. Its exponentials and arc cosine are polynomials
+3. :func:`_transcendental_pass` (vectorised): the transmittance and single scattering's path
+   factor, and the sky's radiance. Its exponentials and arc cosine are polynomials
    (:func:`_exp_neg`, :func:`_acos`: libm's are calls, which LLVM does not vectorise), within
    3e-13 of libm's (``tests/sensors/polarimeter/test_chain_passes.py``).
-4. :func:`_candidate_pass` (scalar): the few rays that may see the solar disc.
+4. :func:`_arithmetic_pass` (vectorised): single scattering along the ray and its mirror, the
+   surface's reflection, the sky's polarization, the Fresnel transmission, the lens's rotation.
+5. :func:`_candidate_pass` (scalar): the few rays that may see the solar disc.
 
-The scratch is one flat float64 array, row r of the block at ``r * BLOCK``: every access in a
+The scratch is one flat float64 array, row r of the block at ``r * ROW``: every access in a
 pass is then the same array at offsets LLVM knows at compile time, and it needs no run-time
-alias checks (with a 2-D scratch it needed more than its limit of 8 and gave up).
+alias checks (with a 2-D scratch it needed more than its limit of 8 and gave up). Its rows are
+a block and 8 values long, so that every fourth does not start 4 KB after another (the same
+sets of the first-level cache), and the polynomials have a pass of their own (in the
+arithmetic pass's loop, their constants made it spill registers): the two together took an
+exact pixel's ray from 118 to 104–108 ns (``benchmarks/chain_passes.py``).
 
 The same formulas as the scalar kernel, their branches written as selects: the results agree
 to float64 rounding (``tests/sensors/polarimeter/test_chain_kernel.py`` holds the chain to the
@@ -38,7 +43,7 @@ from sensors.polarimeter.optics.column_kernel import _atan2_pos, aureole_at
 from twin.core.kernel_cache import njit
 
 #: Rays a pass works on at a time: the block's scratch (:data:`SCRATCH_ROWS` × this × 8 bytes,
-#: 37 KB) stays in the core's first caches between the passes.
+#: 39 KB) stays in the core's first caches between the passes.
 BLOCK = 128
 
 # The scratch's rows. Filled by the index pass:
@@ -56,24 +61,30 @@ _UP = 21  # 21–23: the field's upwelling light at the surface along v' (0: not
 _REF = 24  # 1: the surface's reflection of the upwelling light is added
 _LIT = 25  # 1: the sky reaches the ray (inside the window, not occluded)
 _LENS = 26  # 26–28: the lens rotation's projections cc, ss and their squared norm
-# By the arithmetic pass (the candidate pass reads _T and _CG):
+# By the transcendental pass (the candidate pass reads _T and _CG) and the arithmetic pass:
 _T = 29  # transmittance from the surface, e^(−c z / v_z) (0 looking down)
 _CG = 30  # the cosine of the window's sky direction's angle from the sun (−2: no sky)
 _OUT = 31  # 31–33: the sensor-plane Stokes (photons/s); 34–36: its scattered part alone
-#: Rows of the scratch ``w`` (``SCRATCH_ROWS * BLOCK`` float64) that :func:`chain_points` takes.
-SCRATCH_ROWS = 37
+_G = 37  # single scattering's path factor along v (column_kernel._single's g)
+_RAD = 38  # the sky's radiance along the window's sky direction (0: the sky does not reach it)
+#: A scratch row's length: a block and 8 more, so that the rows do not start 1 KB apart (rows
+#: 4 KB apart fall in the same sets of the first-level cache, and a pass reads ~25 of them at
+#: once).
+ROW = BLOCK + 8
+#: Rows of the scratch ``w`` (``SCRATCH_ROWS * ROW`` float64) that :func:`chain_points` takes.
+SCRATCH_ROWS = 39
 
 
 @njit(cache=True, inline="always")
 def _at(w, row, j):
     """Row ``row`` of the block scratch at ray ``j``."""
-    return w[row * BLOCK + j]
+    return w[row * ROW + j]
 
 
 @njit(cache=True, inline="always")
 def _put(w, row, j, value):
     """Set row ``row`` of the block scratch at ray ``j``."""
-    w[row * BLOCK + j] = value
+    w[row * ROW + j] = value
 
 
 #: asin's Taylor coefficients (2n)! / (4ⁿ (n!)² (2n + 1)), n = 0…23: on [0, ½] the 24th term is
@@ -366,19 +377,16 @@ def _single(vx, vy, vz, w, ph, g, sx, sy, sz, beam_q, r0x, r0y, r0z, f, j):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
-    """The block's arithmetic (its slices ``x`` … ``cos_air``): branch-free, so vectorised.
+def _transcendental_pass(x, y, z, cos_air, w, sky, n, k):
+    """The block's exponentials and arc cosines (its slices ``x`` … ``cos_air``): vectorised.
 
-    Into the scratch's :data:`_OUT` rows, which it does not read. A frame without a lit beam has
-    zero phase rows, so single scattering adds zeros here without a branch.
+    The transmittance from the surface and single scattering's path factor along each ray, and
+    the sky's radiance along its window direction, into the scratch. A loop of its own: with
+    the polynomials' constants in the arithmetic pass's loop, that loop spilled registers.
     """
-    cz, c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z = k[1:11]
-    n_water = k[26]
-    ssx, ssy, ssz, a_c, b_c, c_c, d_c, e_c, edh, sky_scale, dop_max = sky
-    pol = sky_scale * dop_max
-    g = n * n  # the n² radiance law
+    cz, sz = k[1], k[5]
+    ssx, ssy, ssz, a_c, b_c, c_c, d_c, e_c, edh = sky[:9]
     mu_s = max(sz, 1e-3)
-    f = e_sun * mu_s / c
     a1 = cz / mu_s
     e_a1 = math.exp(-a1)  # the beam's attenuation to the camera's depth
     for j in range(x.shape[0]):
@@ -397,7 +405,38 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         xx = cz * dm / (mu_s * vzp)
         series = xx * (1.0 - xx * (0.5 - xx * (1.0 / 6.0 - xx * (1.0 / 24.0 - xx * (1.0 / 120.0)))))
         g_up = abs(e_a1 - e_a2) / dm if abs(a2 - a1) > 1e-3 else max(e_a1, e_a2) * series / dm
-        g1 = g_up if looks_up else e_a1 / (mu_s - vz)
+        _put(w, _G, j, g_up if looks_up else e_a1 / (mu_s - vz))
+        # The CIE sky's radiance (sky.py's gradation and indicatrix; the 15 types' b, d < 0).
+        lit = _at(w, _LIT, j) > 0.0
+        ca = float(cos_air[j])
+        cg = n * vx * ssx + n * vy * ssy + ca * ssz
+        _put(w, _CG, j, cg if lit else -2.0)
+        rad = e_c * cg * cg + (1.0 - c_c * edh)
+        rad += c_c * _exp_neg(d_c * _acos(min(max(cg, -1.0), 1.0)))
+        rad *= 1.0 + a_c * _exp_neg(b_c / (ca if lit else 1.0))
+        _put(w, _RAD, j, rad if lit else 0.0)
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
+    """The block's arithmetic (its slices ``x`` … ``cos_air``): branch-free, so vectorised.
+
+    Into the scratch's :data:`_OUT` rows, which it does not read. A frame without a lit beam has
+    zero phase rows, so single scattering adds zeros here without a branch.
+    """
+    c, sx, sy, sz, e_sun, beam_q, r0x, r0y, r0z = k[2:11]
+    n_water = k[26]
+    ssx, ssy, ssz = sky[0], sky[1], sky[2]
+    sky_scale, dop_max = sky[9], sky[10]
+    pol = sky_scale * dop_max
+    g = n * n  # the n² radiance law
+    mu_s = max(sz, 1e-3)
+    f = e_sun * mu_s / c
+    for j in range(x.shape[0]):
+        vx = float(x[j])
+        vy = float(y[j])
+        vz = float(z[j])
+        g1 = _at(w, _G, j)
         a, b, d = _single(vx, vy, vz, w, _PH, g1, sx, sy, sz, beam_q, r0x, r0y, r0z, f, j)
         si = _at(w, _TAB, j) + a
         sq = _at(w, _TAB + 1, j) + b
@@ -412,7 +451,7 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         uu = _at(w, _UP + 2, j) + d
         # column_kernel.fresnel_up_meridian at incidence cosine v_z, attenuated to the camera.
         refl = _at(w, _REF, j) > 0.0
-        t = e_a2
+        t = _at(w, _T, j)
         cos_t = math.sqrt(max(1.0 - n_water * n_water * (1.0 - vz * vz), 0.0))
         ias = 1.0 / (n_water * vz + cos_t if refl else 1.0)  # (rays without it: any finite)
         iap = 1.0 / (vz + n_water * cos_t if refl else 1.0)
@@ -439,13 +478,7 @@ def _arithmetic_pass(x, y, z, cos_air, w, sky, n, scale, k):
         px = n * vx
         py = n * vy
         hh = px * ssx + py * ssy
-        # The CIE sky's radiance (sky.py's gradation and indicatrix; the 15 types' b, d < 0).
-        cg = hh + ca * ssz
-        _put(w, _CG, j, cg if lit else -2.0)
-        rad = e_c * cg * cg + (1.0 - c_c * edh)
-        rad += c_c * _exp_neg(d_c * _acos(min(max(cg, -1.0), 1.0)))
-        rad *= 1.0 + a_c * _exp_neg(b_c / (ca if lit else 1.0))
-        rad = rad if lit else 0.0
+        rad = _at(w, _RAD, j)
         rho2 = px * px + py * py
         zen = rho2 == 0.0
         pa = -ssx if zen else py * ssx - px * ssy
@@ -527,6 +560,7 @@ def chain_points(
         hi = min(lo + BLOCK, m)
         _index_pass(x[lo:hi], y[lo:hi], z[lo:hi], w, k)
         _gather_pass(x, y, z, cos_air, occluded, basis, column, sees, lo, w, up_c, north_c, k)
+        _transcendental_pass(x[lo:hi], y[lo:hi], z[lo:hi], cos_air[lo:hi], w, sky, n, k)
         _arithmetic_pass(x[lo:hi], y[lo:hi], z[lo:hi], cos_air[lo:hi], w, sky, n, scale, k)
         for j in range(hi - lo):
             for c in range(3):

@@ -54,7 +54,7 @@ def test_the_counts_give_the_binary_searchs_rows_and_fractions():
     k = _kernel_args(_camera())
     t_in, t_out, cos_c_frame = k[14], k[16], k[17]
     v = _rays(k, 1)
-    w = np.empty(cp.SCRATCH_ROWS * cp.BLOCK)
+    w = np.empty(cp.SCRATCH_ROWS * cp.ROW)
     checked = 0
     for lo in range(0, len(v), cp.BLOCK):
         x, y, z = (np.ascontiguousarray(v[lo : lo + cp.BLOCK, i]) for i in range(3))
@@ -62,12 +62,12 @@ def test_the_counts_give_the_binary_searchs_rows_and_fractions():
         for j, vz in enumerate(z.astype(np.float64)):
             inside = vz > cos_c_frame
             tc = t_in if inside else t_out
-            czt = w[cp._CZT * cp.BLOCK + j]
+            czt = w[cp._CZT * cp.ROW + j]
             want = colk._row.py_func(czt, tc)
-            got = cp._row.py_func(w[cp._CNT * cp.BLOCK + j], tc, czt)
+            got = cp._row.py_func(w[cp._CNT * cp.ROW + j], tc, czt)
             assert got == want, (vz, czt)
             want = colk._row.py_func(-vz, t_out)
-            got = cp._row.py_func(w[cp._CUP * cp.BLOCK + j], t_out, -vz)
+            got = cp._row.py_func(w[cp._CUP * cp.ROW + j], t_out, -vz)
             assert got == want, vz
             checked += 1
     assert checked == len(v)
@@ -82,7 +82,7 @@ def test_the_counts_give_the_binary_searchs_rows_and_fractions():
         1.0 - (1.0 - vz) * (1.0 - cos_c_table) / (1.0 - cos_c_frame),
         np.where(vz > 0, vz * cos_c_table / cos_c_frame, vz),
     )
-    np.testing.assert_allclose(w[cp._CZT * cp.BLOCK : (cp._CZT + 1) * cp.BLOCK], want, rtol=1e-14)
+    np.testing.assert_allclose(w[cp._CZT * cp.ROW :][: cp.BLOCK], want, rtol=1e-14)
 
 
 @pytest.mark.parametrize("m", [1, cp.BLOCK - 1, cp.BLOCK, cp.BLOCK + 1, 5 * cp.BLOCK + 17])
