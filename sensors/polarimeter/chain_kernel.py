@@ -8,8 +8,9 @@ exact chain: the sky model (:func:`sky.sky_radiance`), the flat sea's Fresnel tr
 all the rays. At the ~28 000 rays of a 612×512 frame those passes (about forty, and their Python
 calls) cost more than the arithmetic; here they are one kernel
 (:func:`~sensors.polarimeter.chain_passes.chain_points`, a block of rays at a time in passes
-that LLVM vectorises). The same formulas, in float64 from the same float32 rays, rounded once at
-the end: the numpy chain stays the reference, and
+that LLVM vectorises). The same formulas, in float64 from the same float32 rays (but a product
+of two of a ray's components, which numba rounds to float32), rounded once at the end: the
+numpy chain stays the reference, and
 ``tests/sensors/polarimeter/test_chain_kernel.py`` holds the two within float32 rounding.
 
 What stays in numpy: the rays' world components and each ray's cosine in air (so that Snell's

@@ -28,9 +28,11 @@ sets of the first-level cache), and the polynomials have a pass of their own (in
 arithmetic pass's loop, their constants made it spill registers): the two together took an
 exact pixel's ray from 118 to 104–108 ns (``benchmarks/chain_passes.py``).
 
-The same formulas as the scalar kernel, their branches written as selects: the results agree
-to float64 rounding (``tests/sensors/polarimeter/test_chain_kernel.py`` holds the chain to the
-numpy chain; ``benchmarks/chain_passes.py`` times it against the scalar layout).
+The same formulas as the scalar kernel, their branches written as selects, the rays read as
+the scalar kernel read them (numba's ``float()`` of a float32 is a float32, so a product of two
+of a ray's components is rounded to float32 in both): the results agree to float64 rounding
+(``tests/sensors/polarimeter/test_chain_kernel.py`` holds the chain to the numpy chain;
+``benchmarks/chain_passes.py`` times it against the scalar layout).
 """
 
 from __future__ import annotations
@@ -42,8 +44,9 @@ import numpy as np
 from sensors.polarimeter.optics.column_kernel import _atan2_pos, aureole_at
 from twin.core.kernel_cache import njit
 
-#: Rays a pass works on at a time: the block's scratch (:data:`SCRATCH_ROWS` × this × 8 bytes,
-#: 39 KB) stays in the core's first caches between the passes.
+#: Rays a pass works on at a time: the block's scratch (:data:`SCRATCH_ROWS` × :data:`ROW` × 8
+#: bytes, 41 KB) stays in the core's first two cache levels between the passes (64 and 256 were
+#: no faster, benchmarks/chain_passes.py).
 BLOCK = 128
 
 # The scratch's rows. Filled by the index pass:
@@ -61,9 +64,10 @@ _UP = 21  # 21–23: the field's upwelling light at the surface along v' (0: not
 _REF = 24  # 1: the surface's reflection of the upwelling light is added
 _LIT = 25  # 1: the sky reaches the ray (inside the window, not occluded)
 _LENS = 26  # 26–28: the lens rotation's projections cc, ss and their squared norm
-# By the transcendental pass (the candidate pass reads _T and _CG) and the arithmetic pass:
+# By the transcendental pass (the candidate pass reads _T and _CG), _G and _RAD too:
 _T = 29  # transmittance from the surface, e^(−c z / v_z) (0 looking down)
 _CG = 30  # the cosine of the window's sky direction's angle from the sun (−2: no sky)
+# By the arithmetic pass:
 _OUT = 31  # 31–33: the sensor-plane Stokes (photons/s); 34–36: its scattered part alone
 _G = 37  # single scattering's path factor along v (column_kernel._single's g)
 _RAD = 38  # the sky's radiance along the window's sky direction (0: the sky does not reach it)
@@ -164,8 +168,8 @@ def _index_pass(x, y, z, w, k):
 
     ``x``, ``y``, ``z`` are the block's slices, ``k`` the scattering kernel's arguments. A table's
     row is found by counting its row cosines (descending) at or above the ray's, a table row at a
-    time over the block's rays; the binary search's branches cost ~12 ns a ray and a table, the
-    counts ~1 ns.
+    time over the block's rays. The binary searches' branches cost ~25 ns a ray in the staged
+    layout (timed with the rows held fixed, best of 50 on a noisy VM); this whole pass ~12–14.
     """
     sx, sy, sz = k[3], k[4], k[5]
     luts = k[11]
