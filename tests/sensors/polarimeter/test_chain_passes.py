@@ -1,8 +1,9 @@
 """The exact chain's passes (sensors/polarimeter/chain_passes.py) against the scalar kernel.
 
 The index pass finds each table's row by counting row cosines, not by ``column_kernel._row``'s
-binary search: the rows and fractions must be the search's exactly, at the nodes too. And the
-chain, a block at a time, must not depend on where the blocks fall.
+binary search: the rows and fractions must be the search's exactly, at the nodes too. The
+chain, a block at a time, must not depend on where the blocks fall. And its polynomial e^x and
+arccos must be libm's to 3e-13.
 """
 
 from __future__ import annotations
