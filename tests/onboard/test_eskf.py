@@ -617,7 +617,7 @@ def test_update_and_propagation_match_filterpy() -> None:
     z = 1e-4 * rng.standard_normal(2)
     captured = {}
     nav._feedback = lambda x: captured.setdefault("x", x)  # type: ignore[method-assign]
-    res = nav._update("sun", z, h, r)
+    res = nav._update_reference("sun", z, h, r)
     assert res.applied
     x_ref, p_ref = kf_update(np.zeros(DIM), p0, z, r, h)
     np.testing.assert_allclose(captured["x"] / scales, x_ref / scales, rtol=1e-9, atol=1e-12)

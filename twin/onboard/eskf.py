@@ -276,7 +276,16 @@ class Eskf:
         if dt <= 0.0:
             return
         q_diag, qc = self._rate_q(dt)
-        self.P = eskf_kernels.propagate(self.P, self._system_matrix(), dt, q_diag, qc, self._eye)
+        ins = self.ins
+        if ins.standard_gravity:  # F's fill and the step in one dispatch (the same calls)
+            self.P = eskf_kernels.propagate_at(
+                self.P, self._f, _F_VARYING, ins.lat, ins.h, ins._v, ins._c, ins._f,
+                ins.config.free_air_gravity, EARTH_CONSTANTS, dt, q_diag, qc, self._eye,
+            )  # fmt: skip
+        else:
+            self.P = eskf_kernels.propagate(
+                self.P, self._system_matrix(), dt, q_diag, qc, self._eye
+            )
         self._pending_dt = 0.0
 
     def _rate_q(self, dt: float) -> tuple[FloatArray, FloatArray]:
@@ -546,15 +555,19 @@ class Eskf:
         """
         # Compiled (eskf_kernels.update): _update_reference's arithmetic bit for bit; an S
         # without a closed-form inverse (m > 3, or not positive definite) takes the numpy path.
+        # The INS's correction (_feedback's) in the same dispatch when it applies.
         threshold = self._gate[len(z)]
-        status, nis, p, dx = eskf_kernels.update(self.P, h, r, z, threshold)
+        ins = self.ins
+        status, nis, p, state = eskf_kernels.update_at(
+            self.P, h, r, z, threshold, ins._c, ins._v, ins.lat, ins.lon, ins.h, ins._bg, ins._ba
+        )
         if status == 0:
             return self._update_reference(kind, z, h, r)
         if status == 1:
             self.rejections.append(Rejection(self.t, kind, nis, threshold))
             return UpdateResult(kind, self.t, False, nis, "gate")
         self.P = p
-        self._feedback(dx)
+        ins.set_corrected(state)
         self.counts[kind] = self.counts.get(kind, 0) + 1
         return UpdateResult(kind, self.t, True, nis)
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from twin.core.kernel_cache import njit
+from twin.onboard import mechanization
 
 
 @njit(cache=True)
@@ -92,3 +93,31 @@ def update(p, h, r, z, threshold):  # type: ignore[no-untyped-def]
     p2 = p1 + p1.T
     p2 *= 0.5
     return 2, nis, p2, k @ z
+
+
+@njit(cache=True)
+def propagate_at(p, f, index, lat, h, v, c, f_b, free_air, earth, dt, q_diag, qc, eye):  # type: ignore[no-untyped-def]
+    """:meth:`~twin.onboard.eskf.Eskf.propagate_covariance`'s three calls in one.
+
+    F's varying entries refilled in place (``f``, the filter's own array) at the INS's state
+    (:func:`~twin.onboard.mechanization.gravity_partials`, then
+    :func:`~twin.onboard.mechanization.fill_f`), then :func:`propagate`: the same calls in the
+    same order, so the same P bit for bit, for one dispatch instead of three.
+    """
+    dgl, dgh = mechanization.gravity_partials(lat, h, free_air, earth)
+    mechanization.fill_f(f.reshape(-1), index, lat, h, v, c, f_b, dgl, dgh, earth)
+    return propagate(p, f, dt, q_diag, qc, eye)
+
+
+@njit(cache=True)
+def update_at(p, hm, r, z, threshold, c, v, lat, lon, h, bg, ba):  # type: ignore[no-untyped-def]
+    """:func:`update`, then the INS's correction when it was applied, in one dispatch.
+
+    Returns (status, NIS, P⁺, (C, v, lat, lon, h, b_g, b_a)): the state corrected by
+    :func:`~twin.onboard.mechanization.correct` (``Eskf._feedback``'s arithmetic) when status is
+    2, as given otherwise.
+    """
+    status, nis, p1, dx = update(p, hm, r, z, threshold)
+    if status == 2:
+        return status, nis, p1, mechanization.correct(c, v, lat, lon, h, bg, ba, dx)
+    return status, nis, p1, (c, v, lat, lon, h, bg, ba)

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -529,9 +529,15 @@ class StrapdownIns:
         ``e`` = (φ, δv, δL, δλ, δh, δb_g, δb_a) as the filter orders them;
         :func:`twin.onboard.mechanization.correct` does :meth:`correct_floats`'s arithmetic.
         """
-        (self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba) = mechanization.correct(
-            self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba, e
+        self.set_corrected(
+            mechanization.correct(
+                self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba, e
+            )
         )
+
+    def set_corrected(self, state: tuple[Any, ...]) -> None:
+        """Take a corrected state (C, v, L, λ, h, b_g, b_a), as the compiled corrections give it."""
+        (self._c, self._v, self.lat, self.lon, self.h, self._bg, self._ba) = state
         self._cache.clear()
 
     def correct_floats(
