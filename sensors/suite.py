@@ -6,6 +6,7 @@ import heapq
 import itertools
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -85,20 +86,29 @@ class SensorSuite:
         """Sample the sensors that are due now; return readings delivered by now, oldest first."""
         return [r for r, _ in self.poll_with_truth(world)]
 
-    def poll_with_truth(self, world: WorldView) -> list[tuple[Reading, object]]:
+    def poll_with_truth(
+        self, world: WorldView, *, sampled: dict[int, dict[str, Any]] | None = None
+    ) -> list[tuple[Reading, object]]:
         """Like :meth:`poll`, each reading paired with the truth its sensor recorded for it.
 
         A sensor that keeps truth of its own (the polarimeter's truth layers: true Stokes, the
         sun's pixel, masks) exposes it as ``truth`` after ``sample``; it is taken at the sampling
         instant and travels with the reading through the delay, so the scorer and the recorder
         never look it up afterwards. None for sensors without.
+
+        ``sampled`` gives the values of sensors (by index) already sampled at this step, which
+        are then not sampled again: the IMU's sample flown with the physics in a compiled block
+        (:meth:`twin.world.quiet_steps.QuietSteps.fly_closing`).
         """
         t = world.t
         n = round(t / self._dt)
         next_step = self._next_step
         for i, sensor in enumerate(self.sensors):
             if next_step[i] <= n:
-                values = sensor.sample(world, self._rngs[i])
+                if sampled is not None and i in sampled:
+                    values = sampled[i]
+                else:
+                    values = sensor.sample(world, self._rngs[i])
                 # A sensor whose clock is off the IMU's (a drawn polarimeter unit) stamps its
                 # reading with its own time; delivery stays on the physics clock.
                 stamp = t + getattr(sensor, "clock_offset_s", 0.0)

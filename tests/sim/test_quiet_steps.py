@@ -26,9 +26,11 @@ from twin.world import quiet_steps
 
 
 class Flown(list[int]):
-    """The length of every block flown, and the readings other than the IMU's they delivered."""
+    """The length of every block flown, the readings other than the IMU's that their quiet steps
+    delivered, and what each closing step's poll delivered (one entry a block that had one)."""
 
     delivered: list[str]
+    closing: list[tuple[str, ...]]
 
 
 @pytest.fixture
@@ -36,7 +38,8 @@ def blocks(monkeypatch: pytest.MonkeyPatch) -> Flown:
     """Every block flown (so that no test passes with no block at all)."""
     flown = Flown()
     flown.delivered = []
-    fly = quiet_steps.QuietSteps.fly
+    flown.closing = []
+    fly, fly_closing = quiet_steps.QuietSteps.fly, quiet_steps.QuietSteps.fly_closing
 
     def counted(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
         flown.append(len(times))
@@ -44,7 +47,15 @@ def blocks(monkeypatch: pytest.MonkeyPatch) -> Flown:
         flown.delivered += [r.sensor for r in readings if r.sensor != "imu"]
         return readings, samples
 
+    def counted_closing(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
+        flown.append(len(times))
+        readings, samples, pairs = fly_closing(self, command, times)
+        flown.delivered += [r.sensor for r in readings if r.sensor != "imu"]
+        flown.closing.append(tuple(r.sensor for r, _ in pairs))
+        return readings, samples, pairs
+
     monkeypatch.setattr(quiet_steps.QuietSteps, "fly", counted)
+    monkeypatch.setattr(quiet_steps.QuietSteps, "fly_closing", counted_closing)
     return flown
 
 
@@ -95,10 +106,31 @@ def test_a_flight_in_blocks_is_the_step_by_step_flight_bit_for_bit(blocks: Flown
     ref = build_simulation(sc, 5)
     ref.quiet_blocks = False
     ref.fly(12.4)
-    assert blocks and sum(blocks) > 0.8 * 1240, "the flight took the blocks"
-    assert blocks.count(9) > 100 and blocks.delivered.count("depth") > 100
+    assert blocks and sum(blocks) > 0.9 * 1240, "the flight took the blocks"
+    assert blocks.count(10) > 100 and blocks.delivered.count("depth") > 100
+    # Closing steps: the 10 Hz gravity and truth steps, the frames' among them.
+    assert len(blocks.closing) > 100
+    assert sum("polarimeter" in c for c in blocks.closing) >= 10
     assert _world_state(fast) == _world_state(ref)
     assert _filter_state(fast) == _filter_state(ref)
+
+
+def test_blocks_without_closing_steps_are_the_same_flight(
+    blocks: Flown, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Blocks that end before the step after their quiet ones (that step through
+    Simulation.step) fly what the blocks with closing steps fly, bit for bit."""
+    sc = _trial(20.0)
+    closed = build_simulation(sc, 5)
+    closed.fly(6.3)
+    n = len(blocks.closing)
+    assert n > 50
+    monkeypatch.setattr(Simulation, "closing_steps", False)
+    open_ = build_simulation(sc, 5)
+    open_.fly(6.3)
+    assert len(blocks.closing) == n and blocks.count(9) > 50, "no closing steps: blocks of 9"
+    assert _world_state(closed) == _world_state(open_)
+    assert _filter_state(closed) == _filter_state(open_)
 
 
 def _outputs(out: Path) -> dict[str, Any]:

@@ -83,6 +83,9 @@ class Simulation:
     #: where the configuration allows; False: every step through :meth:`step`, the reference
     #: the blocks equal bit for bit (``tests/sim/test_quiet_steps.py``).
     quiet_blocks: ClassVar[bool] = True
+    #: End a block with the step after its quiet ones (its physics and IMU sample compiled, the
+    #: rest as :meth:`step`); False: that step through :meth:`step` (the same numbers).
+    closing_steps: ClassVar[bool] = True
     _quiet: QuietSteps | None = field(default=None, init=False, repr=False)
 
     @property
@@ -123,7 +126,10 @@ class Simulation:
     def step(self, command: ActuatorCommand) -> StepResult:
         """Step physics under ``command``; sensors sampled, readings delivered, observers told."""
         self.plant.step(command)
-        pairs = self.suite.poll_with_truth(self.plant)
+        return self._after_physics(self.suite.poll_with_truth(self.plant))
+
+    def _after_physics(self, pairs: list[tuple[Reading, object]]) -> StepResult:
+        """A step's readings delivered and its result handed to the observers (its poll given)."""
         readings = [r for r, _ in pairs]
         events = self.deliver(readings) if self.navigators and readings else []
         result = StepResult(self.plant.t, readings, [x for _, x in pairs], events)
@@ -132,15 +138,18 @@ class Simulation:
         return result
 
     def advance(self, command: ActuatorCommand, max_steps: int = 1) -> int:
-        """Step under ``command``: the next step, or up to ``max_steps`` when they are quiet.
+        """Step under ``command``: the next step, or up to ``max_steps`` in a compiled block.
 
         Quiet steps sample the IMU alone (no other sensor due; a reading sampled before may be
         delivered in them, not a frame), every filter variant keeping the IMU's samples for its
         next batch and taking the other readings as it would, every observer only taking the
         readings (:class:`Observer`). They are flown in one compiled call
         (:class:`~twin.world.quiet_steps.QuietSteps`), the readings handed to the variants and
-        the observers after it: the same numbers as :meth:`step` one at a time, bit for bit.
-        The caller keeps ``max_steps`` to the steps under one command. Returns the steps flown.
+        the observers after it. The step after them, when it is in reach, ends the block: its
+        physics and IMU sample are flown in the same call, then its other sensors sampled, its
+        readings delivered and its result handed to the observers as :meth:`step` does. The
+        same numbers as :meth:`step` one at a time, bit for bit. The caller keeps
+        ``max_steps`` to the steps under one command. Returns the steps flown.
         """
         if max_steps > 1 and self.quiet_blocks:
             n = self._fly_quiet(command, max_steps)
@@ -150,36 +159,45 @@ class Simulation:
         return 1
 
     def _fly_quiet(self, command: ActuatorCommand, max_steps: int) -> int:
+        limit = max_steps
         for obs in self.observers:
             quiet_steps = getattr(obs, "quiet_steps", None)
             if quiet_steps is None or not hasattr(obs, "on_quiet_steps"):
                 return 0
-            max_steps = min(max_steps, quiet_steps(self))
-        if max_steps < 2:
-            return 0
+            limit = min(limit, quiet_steps(self))
         quiet = self._quiet
         if quiet is None or quiet.plant is not self.plant or quiet.suite is not self.suite:
             quiet = self._quiet = QuietSteps(self.plant, self.suite)
-        times = quiet.times(max_steps)
+        times, k = quiet.block_times(max_steps)
+        k = min(k, limit)
         navs = self.navigators.values()
         # Readings the queue delivers in these steps: each one that the observers or a filter
-        # would do more with (a frame: a compass event, a truth layer) ends the block before it.
-        for j, reading, truth in quiet.deliveries(len(times)):
+        # would do more with (a frame: a compass event, a truth layer) ends the quiet ones.
+        for j, reading, truth in quiet.deliveries(k):
             if truth is not None or not Navigator.takes_quietly(navs, reading):
-                times = times[:j]
+                k = j
                 break
-        if navs and times:
+        if navs and k:
             imu = quiet.imu_name
             assert imu is not None
-            times = times[: Navigator.quiet_imu_steps(navs, imu, times)]
+            k = Navigator.quiet_imu_steps(navs, imu, times[:k])
+        # The step after the quiet ones, where the kernel can fly it, closes the block.
+        closing = k < len(times) and self.closing_steps
+        times = times[: k + 1] if closing else times[:k]
         if len(times) < 2:
             return 0
-        readings, samples = quiet.fly(command, times)
-        if navs and not Navigator.fan_out_imu_block(navs, readings, samples):
-            for r in readings:
-                self.deliver([r])  # none makes a compass event (takes_quietly)
-        for obs in self.observers:
-            obs.on_quiet_steps(self, len(times), readings)  # type: ignore[attr-defined]
+        if closing:
+            readings, samples, pairs = quiet.fly_closing(command, times)
+        else:
+            readings, samples = quiet.fly(command, times)
+        if k:
+            if navs and not Navigator.fan_out_imu_block(navs, readings, samples):
+                for r in readings:
+                    self.deliver([r])  # none makes a compass event (takes_quietly)
+            for obs in self.observers:
+                obs.on_quiet_steps(self, k, readings)  # type: ignore[attr-defined]
+        if closing:
+            self._after_physics(pairs)
         return len(times)
 
     def fly(self, until_s: float) -> None:

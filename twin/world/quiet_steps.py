@@ -119,9 +119,19 @@ class QuietSteps:
 
         The times are MuJoCo's running clock, advanced as ``mj_step2`` advances it.
         """
+        times, quiet = self.block_times(max_steps)
+        return times[:quiet]
+
+    def block_times(self, max_steps: int) -> tuple[list[float], int]:
+        """:meth:`times`, and then the step at which another sensor is due, if one is in reach.
+
+        Returns the clock after each step (at most ``max_steps``) and how many of them are
+        quiet: all of them, or all but the last, a step that :meth:`fly_closing` can end a block
+        with (its other sensors sampled in Python after the block's physics).
+        """
         imu, plant, suite = self._imu, self.plant, self.suite
         if not self._applies or max_steps < 1:
-            return []
+            return [], 0
         assert isinstance(imu, Imu)
         i = self._imu_index
         assert i is not None
@@ -133,20 +143,21 @@ class QuietSteps:
             or suite._dt != dt
             or suite._steps_per_sample(imu) != 1.0
         ):
-            return []
+            return [], 0
         t = plant.t
         now = round(t / dt)
         if suite._next_step[i] != now + 1:
-            return []
-        # Steps before any other sensor is due (its sample is Python's); a reading waiting in the
-        # queue may be delivered in them (deliveries).
-        last = now + max_steps
+            return [], 0
+        # Steps before any other sensor is due (its sample is Python's), and that one; a reading
+        # waiting in the queue may be delivered in them (deliveries).
+        last, due = now + max_steps, False
         for j, step in enumerate(suite._next_step):
             if j != i and step <= last:
-                last = step - 1
+                last, due = step, True
+        quiet = last - now - 1 if due else last - now
         t_prev, gm_dt = imu._t_last, imu._errors.gm._dt
         if t_prev != t:
-            return []
+            return [], 0
         out: list[float] = []
         for _ in range(last - now):
             t = t + dt
@@ -154,7 +165,7 @@ class QuietSteps:
                 break
             out.append(t)
             t_prev = t
-        return out
+        return out, max(0, min(quiet, len(out)))
 
     def deliveries(self, n: int) -> list[tuple[int, Reading, object]]:
         """The readings waiting in the suite's queue that the next ``n`` steps would deliver.
@@ -216,6 +227,37 @@ class QuietSteps:
             FloatingPointError: The state went non-finite (as :meth:`Plant.step` says it).
             RuntimeError: MuJoCo's clock is not where the block put it.
         """
+        out = self._fly(command, times)
+        step = self._after(times)
+        readings = self._imu_readings(times, out)
+        return self._merged(readings, step), out
+
+    def fly_closing(
+        self, command: ActuatorCommand, times: list[float]
+    ) -> tuple[list[Reading], np.ndarray, list[tuple[Reading, object]]]:
+        """Fly the steps :meth:`block_times` gave, the last one not quiet, under ``command``.
+
+        The steps but the last are :meth:`fly`'s. The last one's physics and IMU sample are
+        flown with them; then the suite polls that step as a step by step run would
+        (:meth:`SensorSuite.poll_with_truth`, the IMU's sample given): the sensors due then
+        sample the world as it is after the block, which is that step's, and the queue
+        delivers what is due.
+
+        Returns:
+            :meth:`fly`'s readings and rows for the steps but the last, and the last step's
+            poll: (reading, truth) pairs in delivery order.
+        """
+        out = self._fly(command, times)
+        step = self._after(times, closing=True)
+        readings = self._merged(self._imu_readings(times[:-1], out), step - 1)
+        i = self._imu_index
+        assert i is not None
+        last = len(times) - 1
+        sampled = {i: {"angular_rate": out[last, 0:3], "specific_force": out[last, 3:6]}}
+        return readings, out[:last], self.suite.poll_with_truth(self.plant, sampled=sampled)
+
+    def _fly(self, command: ActuatorCommand, times: list[float]) -> np.ndarray:
+        """The kernel's call: the steps' physics and IMU samples, (n, 6) rows of the latter."""
         n = len(times)
         plant, suite, imu = self.plant, self.suite, self._imu
         assert isinstance(imu, Imu) and self._imu_index is not None
@@ -244,30 +286,50 @@ class QuietSteps:
                 f"quiet steps: MuJoCo's clock reads {float(d.time)!r} after {n} steps, the block "
                 f"expected {times[-1]!r}"
             )
+        return out
+
+    def _after(self, times: list[float], *, closing: bool = False) -> int:
+        """The IMU's clock and schedule after the block; returns the block's last step.
+
+        A closing step leaves the IMU due at it: the suite's poll takes the block's sample.
+        """
+        imu, suite, plant = self._imu, self.suite, self.plant
+        assert isinstance(imu, Imu) and self._imu_index is not None
         imu._t_last = times[-1]
         step = round(times[-1] / float(plant.model.opt.timestep))
-        suite._next_step[self._imu_index] = suite._step_of(
-            math.floor(step / suite._steps_per_sample(imu) + _EPS_STEPS) + 1, imu
+        suite._next_step[self._imu_index] = (
+            step
+            if closing
+            else suite._step_of(
+                math.floor(step / suite._steps_per_sample(imu) + _EPS_STEPS) + 1, imu
+            )
         )
-        name = imu.name
-        readings = [
+        return step
+
+    def _imu_readings(self, times: list[float], out: np.ndarray) -> list[Reading]:
+        assert self._imu is not None
+        name = self._imu.name
+        return [
             Reading(name, t, t, {"angular_rate": out[k, 0:3], "specific_force": out[k, 3:6]})
             for k, t in enumerate(times)
         ]
-        pending = suite._pending
+
+    def _merged(self, readings: list[Reading], step: int) -> list[Reading]:
+        """The IMU's readings (the steps up to ``step``) and the queue's due by then, in order."""
+        pending = self.suite._pending
         if not pending or pending[0][0] > step:
-            return readings, out
+            return readings
         # Readings from the queue, each in its step: before the step's IMU sample when the queue
         # would pop it first (an earlier delivery time; on a tie the older entry, which it is).
-        first = step - n + 1
+        first = step - len(readings) + 1
         merged: list[Reading] = []
         k = 0
         while pending and pending[0][0] <= step:
             due, t_delivered, _, reading, _ = heapq.heappop(pending)
             j = due - first
-            while k < j or (k == j and times[k] < t_delivered):
+            while k < j or (k == j and readings[k].t < t_delivered):
                 merged.append(readings[k])
                 k += 1
             merged.append(reading)
         merged.extend(readings[k:])
-        return merged, out
+        return merged
