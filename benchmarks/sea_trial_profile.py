@@ -8,13 +8,15 @@ wrapper costs ~1 µs a call, ~0.4 s over the 60 000 steps, which the table's "un
 shows with the loop's own scheduling. Start-up (imports, building the simulation, the first
 frame's tables and kernels) is timed apart from the flight. The 100 Hz loop's compiled and C
 cores (MuJoCo's step, the wrench, IMU and filter kernels, and the kernel that flies the quiet
-steps, those with the IMU's sample alone, in blocks: ``twin/world/quiet_steps.py``) are timed
+steps, those with the IMU's sample alone, in blocks, with the step that closes a block:
+``twin/world/quiet_steps.py``) are timed
 too, each row under the stage that calls it (the filters' kernels overlap the filter rows beside
 them): what the loop costs beyond them is the Python between them. Their wrappers add ~0.6 ms
 per simulated second.
 
-Two more sections: the steps sorted by what they carry (their readings, and whether the filters
-made gravity updates in them), each timed whole, the quiet steps by the block; and the limit
+Two more sections: the loop's calls sorted by what they fly (a step by its readings and whether
+the filters made gravity updates in it; a block by the step that closed it), each timed whole;
+and the limit
 (:func:`limit`): every compiled kernel, MuJoCo and OpenCV call of the flight, less the timer's
 measured cost, summed per part, and the real-time factor that work alone would allow with no
 Python at all.
@@ -47,7 +49,10 @@ _WRENCH = "the wrench and added-mass kernel"
 _IMU_K = "the IMU's kernel"
 _FILTER_K = "the filters' kernels (INS batches, covariance steps, updates)"
 _CHAIN_K = "its kernel (chain_points)"
-_QUIET = "quiet steps in compiled blocks (physics + IMU; looked for, flown, handed on)"
+_QUIET = (
+    "steps in compiled blocks (physics + IMU, the closing step's too; looked for, flown, "
+    "the quiet steps' readings handed on)"
+)
 _QUIET_FLY = "flying a block"
 _QUIET_K = "its kernel (MuJoCo, the limiter, the wrench, the IMU)"
 # The frame's and the compass's compiled work, for the limit: each lies within the rows above it.
@@ -56,8 +61,10 @@ _COMPASS_K = "their compiled kernels"
 STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     ("physics step", "", "twin.world.plant", "Plant", "step", "step"),
     (_QUIET, "", "twin.sim.step", "Simulation", "_fly_quiet", "step"),
-    ("looking for quiet steps", _QUIET, "twin.world.quiet_steps", "QuietSteps", "times", "step"),
+    ("looking for quiet steps", _QUIET, "twin.world.quiet_steps", "QuietSteps", "block_times",
+     "step"),
     (_QUIET_FLY, _QUIET, "twin.world.quiet_steps", "QuietSteps", "fly", "step"),
+    (_QUIET_FLY, _QUIET, "twin.world.quiet_steps", "QuietSteps", "fly_closing", "step"),
     (_QUIET_K, _QUIET_FLY, "twin.world.quiet_steps_kernel", "", "fly", "step"),
     ("their readings to the filters (the IMU's to the batches, the depth updates)", _QUIET,
      "twin.onboard.navigator", "Navigator", "fan_out_imu_block", "step"),
@@ -221,32 +228,50 @@ def step(self, cmd, _orig=orig_step):
         first["calls_after_first"] = dict(calls)
         first["rays_after_first"] = rays[0]
         return r
-    # Each later step timed whole and sorted by what it carried: its readings, and whether the
-    # filters made gravity updates in it (the 10 Hz instants, where the scorer samples truth).
+    return _orig(self, cmd)
+step_mod.Simulation.step = step
+# Each later call of Simulation.advance timed whole and sorted by what it flew: a step by its
+# readings and whether the filters made gravity updates in it (the 10 Hz instants, where the
+# scorer samples truth); a block of quiet steps by the step that closed it, if one did.
+last = {}
+orig_after = step_mod.Simulation._after_physics
+def after(self, pairs, _orig=orig_after):
     g0 = calls["gravity updates (3 filters)"]
-    t0 = time.perf_counter()
-    r = _orig(self, cmd)
-    took = time.perf_counter() - t0
+    r = _orig(self, pairs)
     kind = " + ".join(sorted({x.sensor for x in r.readings})) or "no reading"
     if calls["gravity updates (3 filters)"] > g0:
         kind += " + gravity updates, truth"
-    kinds_s[kind] += took
-    kinds_n[kind] += 1
+    last["kind"] = kind
     return r
-kinds_s, kinds_n = collections.defaultdict(float), collections.Counter()
-step_mod.Simulation.step = step
-# A block of quiet steps (Simulation.advance), timed whole (its samples handed on to the filters
-# and the scorer), counted by its steps; a look that found none is in the stage table.
+step_mod.Simulation._after_physics = after
 orig_quiet = step_mod.Simulation._fly_quiet
-QUIET_KIND = "quiet: the IMU (and readings sampled before, delivered), in compiled blocks"
 def fly_quiet(self, cmd, most, _orig=orig_quiet):
+    n, closing = _orig(self, cmd, most)
+    last["block"] = n
+    return n, closing
+step_mod.Simulation._fly_quiet = fly_quiet
+QUIET_KIND = "a block of quiet steps: the IMU (and readings sampled before, delivered)"
+orig_advance = step_mod.Simulation.advance
+def advance(self, cmd, most=1, _orig=orig_advance):
+    if "first_step_s" not in first:
+        return _orig(self, cmd, most)
+    last.clear()
     t0 = time.perf_counter()
     n = _orig(self, cmd, most)
-    if n:
-        kinds_s[QUIET_KIND] += time.perf_counter() - t0
-        kinds_n[QUIET_KIND] += n
+    took = time.perf_counter() - t0
+    if not last.get("block"):
+        kind = "a step: " + last["kind"]
+    elif "kind" in last:
+        kind = "a block of quiet steps closed by a step: " + last["kind"]
+    else:
+        kind = QUIET_KIND
+    kinds_s[kind] += took
+    kinds_n[kind] += 1
+    kinds_steps[kind] += n
     return n
-step_mod.Simulation._fly_quiet = fly_quiet
+kinds_s, kinds_n = collections.defaultdict(float), collections.Counter()
+kinds_steps = collections.Counter()
+step_mod.Simulation.advance = advance
 sc = scenarios.load("sea_trial_10m")
 mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
 sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
@@ -274,10 +299,10 @@ print(json.dumps({"imports_s": t_imported - t_start, "run_s": wall,
                   "flight_s": wall - (first["t0"] - t0) - first["first_step_s"],
                   "stages_s": flight, "calls": ncalls,
                   "sim_s": m["sim_time_s"], "frames": m["sensor_readings"].get("polarimeter", 0),
-                  "steps": ncalls["physics step"] + sum(
-                      n for k, n in kinds_n.items() if "compiled block" in k),
+                  "steps": 1 + sum(kinds_steps.values()),
                   "wrapper_s": wrapper_s,
                   "dispatch_s": dispatch_s, "step_kinds_s": kinds_s, "step_kinds_n": kinds_n,
+                  "step_kinds_steps": kinds_steps,
                   "chain_rays": rays[0] - first["rays_after_first"]}))
 """
 )
@@ -428,28 +453,30 @@ def _report(row: dict[str, Any], meta: dict[str, Any]) -> list[str]:
 
 
 def _step_kinds(row: dict[str, Any], sim_s: float) -> list[str]:
-    """The steps by what they carried: how often, and what one costs."""
+    """The loop's calls by what they flew: how often, how many steps, and what one costs."""
     ks, kn = row.get("step_kinds_s", {}), row.get("step_kinds_n", {})
+    steps = row.get("step_kinds_steps", {})
     if not ks:
         return []
     md = [
         "",
-        "## The steps, by what they carry",
+        "## The loop's calls, by what they fly",
         "",
-        "Each step after the first timed whole (physics, sensors, the filters, the scorer; not "
-        "the autopilot, above), by its readings and whether the filters made their gravity "
-        "updates in it (the 10 Hz instants, where the scorer also samples truth), and the quiet "
-        "steps flown in compiled blocks (each block timed whole, shared by its steps); the stage "
-        f"timers inside are counted in ({1e9 * row.get('wrapper_s', 0.0):.0f} ns each, about "
-        "ten in a step that carries the IMU's sample alone):",
+        "Each call of `Simulation.advance` after the first step timed whole (physics, sensors, "
+        "the filters, the scorer; not the autopilot, above): a step alone by its readings and "
+        "whether the filters made their gravity updates in it (the 10 Hz instants, where the "
+        "scorer also samples truth); a block of quiet steps flown in one compiled call, by the "
+        "step that closed it (its physics and IMU sample flown with the block, then its other "
+        "sensors, its readings delivered, the scorer) if one did. The stage timers inside are "
+        f"counted in ({1e9 * row.get('wrapper_s', 0.0):.0f} ns each):",
         "",
-        "| step | steps per simulated s | per step | ms per simulated s |",
-        "|---|---|---|---|",
+        "| call | calls per simulated s | steps per call | per call | ms per simulated s |",
+        "|---|---|---|---|---|",
     ]
     for kind in sorted(ks, key=lambda k: -ks[k]):
         per = 1e6 * ks[kind] / kn[kind]
         md.append(
-            f"| {kind} | {kn[kind] / sim_s:.1f} | "
+            f"| {kind} | {kn[kind] / sim_s:.1f} | {steps.get(kind, kn[kind]) / kn[kind]:.1f} | "
             + (f"{per / 1e3:.2f} ms" if per >= 1000 else f"{per:.1f} µs")
             + f" | {1e3 * ks[kind] / sim_s:.2f} |"
         )

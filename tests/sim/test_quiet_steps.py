@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 
 import scenarios
+from sensors.suite import SensorSuite
 from twin.app.run import run_scenario
 from twin.core.messages import ActuatorCommand
 from twin.sim.build import build_simulation
@@ -40,6 +41,7 @@ def blocks(monkeypatch: pytest.MonkeyPatch) -> Flown:
     flown.delivered = []
     flown.closing = []
     fly, fly_closing = quiet_steps.QuietSteps.fly, quiet_steps.QuietSteps.fly_closing
+    poll = SensorSuite.poll_with_truth
 
     def counted(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
         flown.append(len(times))
@@ -49,13 +51,20 @@ def blocks(monkeypatch: pytest.MonkeyPatch) -> Flown:
 
     def counted_closing(self: quiet_steps.QuietSteps, command: Any, times: list[float]) -> Any:
         flown.append(len(times))
-        readings, samples, pairs = fly_closing(self, command, times)
+        readings, samples, sampled = fly_closing(self, command, times)
         flown.delivered += [r.sensor for r in readings if r.sensor != "imu"]
-        flown.closing.append(tuple(r.sensor for r, _ in pairs))
-        return readings, samples, pairs
+        flown.closing.append(())
+        return readings, samples, sampled
+
+    def polled(self: SensorSuite, world: Any, *, sampled: Any = None) -> Any:
+        pairs = poll(self, world, sampled=sampled)
+        if sampled is not None:
+            flown.closing[-1] = tuple(r.sensor for r, _ in pairs)
+        return pairs
 
     monkeypatch.setattr(quiet_steps.QuietSteps, "fly", counted)
     monkeypatch.setattr(quiet_steps.QuietSteps, "fly_closing", counted_closing)
+    monkeypatch.setattr(SensorSuite, "poll_with_truth", polled)
     return flown
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import ClassVar, Protocol
+from typing import Any, ClassVar, Protocol
 
 from scenarios.schema import Scenario
 from sensors.suite import SensorSuite
@@ -152,18 +152,27 @@ class Simulation:
         ``max_steps`` to the steps under one command. Returns the steps flown.
         """
         if max_steps > 1 and self.quiet_blocks:
-            n = self._fly_quiet(command, max_steps)
+            n, closing = self._fly_quiet(command, max_steps)
+            if closing is not None:  # the last step's poll, given its IMU sample
+                self._after_physics(self.suite.poll_with_truth(self.plant, sampled=closing))
             if n:
                 return n
         self.step(command)
         return 1
 
-    def _fly_quiet(self, command: ActuatorCommand, max_steps: int) -> int:
+    def _fly_quiet(
+        self, command: ActuatorCommand, max_steps: int
+    ) -> tuple[int, dict[int, dict[str, Any]] | None]:
+        """A block's steps flown and their quiet readings handed on; (steps, closing sample).
+
+        The closing sample (None: the block had no closing step) is the last step's IMU sample,
+        for :meth:`advance` to poll that step with.
+        """
         limit = max_steps
         for obs in self.observers:
             quiet_steps = getattr(obs, "quiet_steps", None)
             if quiet_steps is None or not hasattr(obs, "on_quiet_steps"):
-                return 0
+                return 0, None
             limit = min(limit, quiet_steps(self))
         quiet = self._quiet
         if quiet is None or quiet.plant is not self.plant or quiet.suite is not self.suite:
@@ -185,9 +194,10 @@ class Simulation:
         closing = k < len(times) and self.closing_steps
         times = times[: k + 1] if closing else times[:k]
         if len(times) < 2:
-            return 0
+            return 0, None
+        sampled = None
         if closing:
-            readings, samples, pairs = quiet.fly_closing(command, times)
+            readings, samples, sampled = quiet.fly_closing(command, times)
         else:
             readings, samples = quiet.fly(command, times)
         if k:
@@ -196,9 +206,7 @@ class Simulation:
                     self.deliver([r])  # none makes a compass event (takes_quietly)
             for obs in self.observers:
                 obs.on_quiet_steps(self, k, readings)  # type: ignore[attr-defined]
-        if closing:
-            self._after_physics(pairs)
-        return len(times)
+        return len(times), sampled
 
     def fly(self, until_s: float) -> None:
         """Fly the mission (guidance, autopilot, physics, sensors) up to sim time ``until_s``.

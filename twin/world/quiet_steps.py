@@ -234,18 +234,18 @@ class QuietSteps:
 
     def fly_closing(
         self, command: ActuatorCommand, times: list[float]
-    ) -> tuple[list[Reading], np.ndarray, list[tuple[Reading, object]]]:
+    ) -> tuple[list[Reading], np.ndarray, dict[int, dict[str, Any]]]:
         """Fly the steps :meth:`block_times` gave, the last one not quiet, under ``command``.
 
         The steps but the last are :meth:`fly`'s. The last one's physics and IMU sample are
-        flown with them; then the suite polls that step as a step by step run would
-        (:meth:`SensorSuite.poll_with_truth`, the IMU's sample given): the sensors due then
-        sample the world as it is after the block, which is that step's, and the queue
-        delivers what is due.
+        flown with them and the IMU left due at it: the suite's poll of that step
+        (:meth:`SensorSuite.poll_with_truth` with the returned ``sampled``) then takes that
+        sample, samples the other sensors due (the world as it is after the block is that
+        step's) and delivers what is due, as a step by step run would.
 
         Returns:
             :meth:`fly`'s readings and rows for the steps but the last, and the last step's
-            poll: (reading, truth) pairs in delivery order.
+            IMU sample as the poll's ``sampled``.
         """
         out = self._fly(command, times)
         step = self._after(times, closing=True)
@@ -254,7 +254,7 @@ class QuietSteps:
         assert i is not None
         last = len(times) - 1
         sampled = {i: {"angular_rate": out[last, 0:3], "specific_force": out[last, 3:6]}}
-        return readings, out[:last], self.suite.poll_with_truth(self.plant, sampled=sampled)
+        return readings, out[:last], sampled
 
     def _fly(self, command: ActuatorCommand, times: list[float]) -> np.ndarray:
         """The kernel's call: the steps' physics and IMU samples, (n, 6) rows of the latter."""
