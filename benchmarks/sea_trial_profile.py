@@ -109,8 +109,8 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     (_IMU_K, "IMU model", "sensors.imu_kernel", "", "sample", "step"),
     (_FILTER_K, "readings to the filters", "twin.onboard.mechanization", "", "advance_samples",
      "step"),
-    (_FILTER_K, "readings to the filters", "twin.onboard.eskf_kernels", "", "propagate", "step"),
-    (_FILTER_K, "readings to the filters", "twin.onboard.eskf_kernels", "", "update", "step"),
+    *((_FILTER_K, "readings to the filters", "twin.onboard.eskf_kernels", "", name, "step")
+      for name in ("propagate", "update", "propagate_at", "update_at")),
     (_CHAIN_K, "compiled chain (scattering kernel, sky, Fresnel, lens)",
      "sensors.polarimeter.chain_kernel", "", "chain_points", "frame"),
     # The frame's and the compass's compiled and C work, for the limit (:func:`limit`): every
