@@ -49,6 +49,14 @@ STAGES: tuple[tuple[str, str, str, str], ...] = (
         "QuietSteps",
         "fly",
     ),
+    # Since this stop a block ends with the step after its quiet ones (its physics and IMU
+    # sample flown with them; its other sensors, filters and scorer in their rows).
+    (
+        "quiet steps in compiled blocks (physics + IMU)",
+        "twin.world.quiet_steps",
+        "QuietSteps",
+        "fly_closing",
+    ),
     ("INS + covariance (3 filters, 100 Hz)", "twin.onboard.eskf", "Eskf", "predict_reading"),
     # Since issue #31 the samples go through the INS in batches (a sample the batch refuses
     # still goes through predict_reading, inside flush: counted twice, and none does in a trial).

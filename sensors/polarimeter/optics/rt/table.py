@@ -43,12 +43,12 @@ import functools
 import math
 import sys
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sensors.polarimeter.optics.rt import decompose, poles, reference, store
+from sensors.polarimeter.optics.rt import decompose, frame_kernel, poles, reference, store
 from sensors.polarimeter.optics.rt.frame_field import NONE, FrameField
 from sensors.polarimeter.optics.rt.frame_field import blend as blend
 from sensors.polarimeter.optics.rt.grid import DATA_FILE as DATA_FILE
@@ -79,9 +79,18 @@ class _FrameGrid(NamedTuple):
     phi: FloatArray  # the azimuth bins' centres (rad)
 
 
+# No warp: :func:`frame_kernel.at`'s empty row and weight arrays.
+_NO_ROWS = np.zeros(0, dtype=np.intp)
+_NO_WEIGHTS = np.zeros(0, dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class LightFieldTable:
     """Multiply scattered light of one water body over sun zenith and depth (module docstring)."""
+
+    #: Interpolate a frame's fields in one compiled pass each (:mod:`.frame_kernel`); False:
+    #: numpy (:meth:`_at_numpy`, the reference it equals bit for bit).
+    compiled: ClassVar[bool] = True
 
     key: WaterKey
     sun_zenith_water_deg: FloatArray
@@ -313,12 +322,14 @@ class LightFieldTable:
             )
 
         def at(tab: FloatArray, ed: FloatArray, tau: float, warp: bool = True) -> FloatArray:
-            a = self._at_depth(tab[i], ed[i], tau)
-            b = self._at_depth(tab[i + 1], ed[i + 1], tau)
-            if warp and warps is not None:
-                a = self._warp(a, *warps[0])
-                b = self._warp(b, *warps[1])
-            return (1.0 - f) * a + f * b
+            w = warps if warp else None
+            ca, cb = self._depth_coefs(ed[i], tau), self._depth_coefs(ed[i + 1], tau)
+            if ca is None or cb is None or not self.compiled:  # past the deepest plane: numpy
+                return self._at_numpy(tab, ed, tau, i, f, w)
+            out = np.empty(tab.shape[2:], dtype=np.float64)
+            (ka, ta), (kb, tb) = w if w is not None else ((_NO_ROWS, _NO_WEIGHTS),) * 2
+            frame_kernel.at(tab, i, ca, cb, ka, ta.reshape(-1), kb, tb.reshape(-1), f, out)
+            return out
 
         sun = at(sun_t, self.e_down_sun, tau_c)
         up = e_sun_plane * at(sun_t, self.e_down_sun, 0.0) if flat else None
@@ -413,22 +424,62 @@ class LightFieldTable:
         i, f = self._node(sun_zenith_water_rad, n_water)
         return float((1.0 - f) * sky.transmittance[i] + f * sky.transmittance[i + 1])
 
-    def _at_depth(self, field: FloatArray, e_down: FloatArray, tau: float) -> FloatArray:
-        # Planes no history reached (in weakly scattering water c z = 20 is e^-20 of the surface
-        # light) end the table early: past the last reached plane, the asymptotic extrapolation.
+    def _at_numpy(
+        self,
+        tab: FloatArray,
+        ed: FloatArray,
+        tau: float,
+        i: int,
+        f: float,
+        warps: tuple[tuple[NDArray[np.intp], FloatArray], ...] | None,
+    ) -> FloatArray:
+        """:meth:`frame`'s field of ``tab`` with numpy (:func:`frame_kernel.at`'s reference)."""
+        a = self._at_depth(tab[i], ed[i], tau)
+        b = self._at_depth(tab[i + 1], ed[i + 1], tau)
+        if warps is not None:
+            a = self._warp(a, *warps[0])
+            b = self._warp(b, *warps[1])
+        return (1.0 - f) * a + f * b
+
+    def _depth_coefs(
+        self, e_down: FloatArray, tau: float
+    ) -> tuple[float, float, float, float, float, float] | None:
+        """Depth interpolation's plane k and factors (k, 1 − t, t, E_k, E_k+1, e).
+
+        None past the last plane any history reached (in weakly scattering water c z = 20 is
+        e^-20 of the surface light): there :meth:`_at_depth` extrapolates.
+        """
         values = e_down.tolist()
         reached = next((j for j, v in enumerate(values) if v <= 0), len(values))
         p = self._planes_list[:reached]
-        ed = e_down[:reached]  # numpy scalars: the arithmetic in e_down's precision
         if tau >= p[-1]:
+            return None
+        ed = values[:reached]
+        k = min(max(bisect.bisect_right(p, tau) - 1, 0), len(p) - 2)
+        t = (tau - p[k]) / (p[k + 1] - p[k])
+        e = math.exp((1 - t) * math.log(ed[k]) + t * math.log(ed[k + 1]))
+        return float(k), 1 - t, t, ed[k], ed[k + 1], e
+
+    def _at_depth(self, field: FloatArray, e_down: FloatArray, tau: float) -> FloatArray:
+        """A node's field at optical depth ``tau`` (the numpy reference's depth step).
+
+        Linear in the field normalised by E_d, E_d log-linear; past the last reached plane, the
+        asymptotic extrapolation.
+        """
+        coefs = self._depth_coefs(e_down, tau)
+        if coefs is None:
+            values = e_down.tolist()
+            reached = next((j for j, v in enumerate(values) if v <= 0), len(values))
+            p = self._planes_list[:reached]
+            ed = e_down[:reached]  # numpy scalars: the arithmetic in e_down's precision
             k_inf = math.log(ed[-2] / ed[-1]) / (p[-1] - p[-2])
             return field[reached - 1] * math.exp(-k_inf * (tau - p[-1]))
-        k = min(max(bisect.bisect_right(p, tau) - 1, 0), len(p) - 2)
-        # A numpy float64 (not a Python float, which numpy treats as weak): the sum below in
-        # float64, as before the look-up's geometry was cached (bit-identical frames).
-        t = np.float64((tau - p[k]) / (p[k + 1] - p[k]))
-        e = math.exp((1 - t) * math.log(ed[k]) + t * math.log(ed[k + 1]))
-        return ((1 - t) * field[k] / ed[k] + t * field[k + 1] / ed[k + 1]) * e
+        # numpy float64 scalars (not Python floats, which numpy treats as weak): the sums below
+        # in float64 whatever the field's precision (bit-identical frames).
+        k, w0, w1, d0, d1, e = coefs
+        k = int(k)
+        w0, w1, d0, d1 = np.float64(w0), np.float64(w1), np.float64(d0), np.float64(d1)
+        return (w0 * field[k] / d0 + w1 * field[k + 1] / d1) * e
 
     def _pad(self, g: FloatArray) -> FrameField:
         gr = self._grid
