@@ -68,7 +68,6 @@ from twin.onboard.eskf_algebra import (
     cross3,
     dot3,
     given3,
-    inverse_spd,
     tangent_basis,
     unit3,
 )
@@ -80,10 +79,10 @@ from twin.onboard.eskf_dynamics import (
     I_H,
     PHI,
     _f_constant_part,
-    _f_varying_part,
     attitude_error,
     error_dynamics,
 )
+from twin.onboard.eskf_references import EskfReferences
 from twin.onboard.eskf_results import MeasurementKind, NavEstimate, Rejection, UpdateResult
 from twin.onboard.ins import EARTH_CONSTANTS, NavState, StrapdownIns
 
@@ -102,7 +101,7 @@ __all__ = [
 ]
 
 
-class Eskf:
+class Eskf(EskfReferences):
     """INS + 15-state error-state Kalman filter (module docstring).
 
     Args:
@@ -256,13 +255,6 @@ class Eskf:
         )  # fmt: skip
         return self._f
 
-    def _system_matrix_reference(self) -> FloatArray:
-        """:meth:`_system_matrix` in Python (the reference)."""
-        ins = self.ins
-        dgl, dgh = self.gravity_partials()
-        self._f_flat[_F_VARYING] = _f_varying_part(ins.lat, ins.h, ins._v, ins._c, ins._f, dgl, dgh)
-        return self._f
-
     def propagate_covariance(self) -> None:
         """Bring P to the INS's time (Φ = I + FΔt + ½(FΔt)², Q_d trapezoidal).
 
@@ -299,28 +291,6 @@ class Eskf:
             qc = np.diag(q_diag)
         self._w2_dt = 0.0
         return q_diag, qc
-
-    def _propagate_reference(self) -> None:
-        """:meth:`propagate_covariance` with numpy (the reference)."""
-        dt = self._pending_dt
-        if dt <= 0.0:
-            return
-        fdt = self._system_matrix() * dt
-        phi = fdt @ fdt
-        phi *= 0.5
-        phi += fdt
-        phi += self._eye
-        q_diag, qc = self._rate_q(dt)
-        # Q_d = ½ (Φ Q_c Φᵀ + Q_c) Δt, Q_c diagonal: Φ Q_c Φᵀ = (Φ · q) Φᵀ.
-        q = (phi * q_diag) @ phi.T
-        q += qc
-        q *= 0.5 * dt
-        p = phi @ self.P @ phi.T
-        p += q
-        p += p.T  # symmetrize (numpy buffers the overlapping transpose)
-        p *= 0.5
-        self.P = p
-        self._pending_dt = 0.0
 
     # --- measurement updates -------------------------------------------------------------------
     def update_gravity(
@@ -571,50 +541,9 @@ class Eskf:
         self.counts[kind] = self.counts.get(kind, 0) + 1
         return UpdateResult(kind, self.t, True, nis)
 
-    def _update_reference(
-        self, kind: MeasurementKind, z: FloatArray, h: FloatArray, r: FloatArray
-    ) -> UpdateResult:
-        """:meth:`_update` with numpy (the reference)."""
-        # x is zero here, so the innovation is z itself.
-        p = self.P
-        pht = p @ h.T
-        s = h @ pht
-        s += r
-        s_inv = inverse_spd(s)
-        zl = z.tolist()
-        nis = sum(a * b for a, b in zip(zl, (s_inv @ z).tolist(), strict=True))
-        threshold = self._gate[len(zl)]
-        if not nis < threshold:
-            self.rejections.append(Rejection(self.t, kind, nis, threshold))
-            return UpdateResult(kind, self.t, False, nis, "gate")
-        k = pht @ s_inv
-        ikh_p = p - k @ pht.T  # (I − KH) P
-        m = ikh_p @ h.T
-        m -= k @ r
-        p = ikh_p - m @ k.T  # (I − KH) P (I − KH)ᵀ + K R Kᵀ
-        p += p.T
-        p *= 0.5
-        self.P = p
-        self._feedback(k @ z)
-        self.counts[kind] = self.counts.get(kind, 0) + 1
-        return UpdateResult(kind, self.t, True, nis)
-
     def _feedback(self, x: FloatArray) -> None:
         """Apply the estimated errors to the INS and reset the error state (ESKF reset)."""
         self.ins.correct_vector(x)
-
-    def _feedback_reference(self, x: FloatArray) -> None:
-        """:meth:`_feedback` through the INS's Python correction (the reference)."""
-        e = x.tolist()
-        self.ins.correct_floats(
-            (e[0], e[1], e[2]),
-            (e[3], e[4], e[5]),
-            e[6],
-            e[7],
-            e[8],
-            (e[9], e[10], e[11]),
-            (e[12], e[13], e[14]),
-        )
 
     # --- output --------------------------------------------------------------------------------
     def nav_state(self) -> NavState:
