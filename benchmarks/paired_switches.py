@@ -1,0 +1,196 @@
+"""Fast paths that keep their reference behind a switch, timed against it in one process (#31).
+
+Two of issue #31's changes keep the path they replaced, behind a class switch, as the reference
+a test holds them to bit for bit. Their gains are a few per cent of a sea trial, less than this
+VM's run-to-run spread (±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot see them;
+here the two paths run in one process on one core, their rounds interleaved, so that the
+machine's hour affects both alike:
+
+* ``Simulation.closing_steps``: a block of quiet steps ends with the step after them (its
+  physics and IMU sample flown in the block's compiled call, its poll given that sample), or
+  that step goes through ``Simulation.step``. Two simulations of the sea trial (three filter
+  variants, no observers) fly the same flight in alternating chunks of ``--chunk-s``, one with
+  each setting; each chunk's wall time (perf_counter) goes to its setting's sum. Their states
+  are compared at the end.
+* ``LightFieldTable.compiled``: a frame's table fields interpolated in one compiled pass each
+  (``sensors/polarimeter/optics/rt/frame_kernel.py``), or with numpy. The polarimeter's light
+  field of a frame (``Polarimeter._frame_constants``, at the sea trial's camera, depth and sun)
+  is timed both ways, best of ``--repeats`` × 100 calls, interleaved; the fields are compared.
+
+    OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/paired_switches.py [--flight-s 300]
+
+Writes benchmarks/results/paired_switches.{json,md}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import platform
+import sys
+import time
+import timeit
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import scenarios
+from sensors.polarimeter.optics.rt import table as rt_table
+from twin.record import provenance as pv
+from twin.sim.build import build_simulation
+from twin.sim.step import Simulation
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+WARM_S = 5.0  # flown before timing: the first frame's tables and kernels
+
+
+def _scenario() -> Any:
+    sc = scenarios.load("sea_trial_10m")
+    mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
+    return dataclasses.replace(
+        sc,
+        duration_s=1e4,
+        mission=mission,
+        navigation=dataclasses.replace(sc.navigation, variants=("ins", "pol", "lig")),
+    )
+
+
+def _state(sim: Simulation) -> tuple:
+    d = sim.plant.data
+    navs = tuple(
+        (n.filter.P.tobytes(), n.filter.ins._c, n.filter.ins.lat, n.filter.ins.h)
+        for n in sim.navigators.values()
+    )
+    return d.time, d.qpos.tobytes(), d.qvel.tobytes(), navs
+
+
+def closing_steps(flight_s: float, chunk_s: float) -> dict[str, Any]:
+    """ms per simulated second of the flight with and without closing steps (module docstring)."""
+    sc = _scenario()
+    sims = {flag: build_simulation(sc) for flag in (False, True)}
+    spent = {False: 0.0, True: 0.0}
+    try:
+        for flag, sim in sims.items():
+            Simulation.closing_steps = flag
+            sim.fly(WARM_S)
+        t = WARM_S
+        chunks = 0
+        while t < WARM_S + flight_s - 1e-9:
+            t = min(t + chunk_s, WARM_S + flight_s)
+            order = (False, True) if chunks % 2 == 0 else (True, False)
+            for flag in order:
+                Simulation.closing_steps = flag
+                t0 = time.perf_counter()
+                sims[flag].fly(t)
+                spent[flag] += time.perf_counter() - t0
+            chunks += 1
+    finally:
+        Simulation.closing_steps = True
+    return {
+        "flight_s": flight_s,
+        "chunk_s": chunk_s,
+        "chunks": chunks,
+        "without_ms_per_sim_s": 1e3 * spent[False] / flight_s,
+        "with_ms_per_sim_s": 1e3 * spent[True] / flight_s,
+        "same_state": _state(sims[False]) == _state(sims[True]),
+    }
+
+
+def frame_fields(repeats: int) -> dict[str, Any]:
+    """µs per frame of a frame's light field, the table's fields compiled or with numpy."""
+    sim = build_simulation(_scenario())
+    sim.fly(12.0)
+    pol = next(s for s in sim.suite.sensors if type(s).__name__ == "Polarimeter")
+    world = sim.plant
+    pos, _ = world.site_pose(pol.site)
+    depth = float(world.surface_z_m - pos[2])
+    sun = pol._sun_for(world)
+    sun_enu = np.asarray(sun.direction_enu, dtype=np.float64)
+
+    def call() -> Any:
+        return pol._frame_constants(sun, sun_enu, depth)
+
+    best = {False: float("inf"), True: float("inf")}
+    fields = {}
+    try:
+        for _ in range(repeats):
+            for flag in (False, True):
+                rt_table.LightFieldTable.compiled = flag
+                fields[flag] = call().state.field
+                best[flag] = min(best[flag], min(timeit.repeat(call, number=100, repeat=1)) / 100)
+    finally:
+        rt_table.LightFieldTable.compiled = True
+    same = all(
+        np.array_equal(np.asarray(getattr(fields[False], k)), np.asarray(getattr(fields[True], k)))
+        for k in ("inside", "outside", "aureole", "up")
+    )
+    return {
+        "depth_m": depth,
+        "repeats": repeats,
+        "numpy_us": 1e6 * best[False],
+        "compiled_us": 1e6 * best[True],
+        "same_fields": same,
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--flight-s", type=float, default=300.0)
+    ap.add_argument("--chunk-s", type=float, default=2.0)
+    ap.add_argument("--repeats", type=int, default=20)
+    args = ap.parse_args()
+    try:
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    except (AttributeError, OSError):
+        pass
+    closing = closing_steps(args.flight_s, args.chunk_s)
+    fields = frame_fields(args.repeats)
+    meta = {
+        "machine": platform.platform(),
+        "cpu_affinity": sorted(os.sched_getaffinity(0)),
+        "load_average_1_5_15": [round(v, 2) for v in os.getloadavg()],
+        "date": time.strftime("%Y-%m-%d"),
+        "args": vars(args),
+        "provenance": pv.provenance(),
+    }
+    c, f = closing, fields
+    lines = [
+        "# Fast paths against the references behind their switches, in one process (issue #31)",
+        "",
+        f"`python benchmarks/paired_switches.py --flight-s {args.flight_s:g} --chunk-s "
+        f"{args.chunk_s:g} --repeats {args.repeats}`, one core, {meta['date']}, "
+        f"{meta['machine']}, CPUs {meta['cpu_affinity']}, load average "
+        f"{meta['load_average_1_5_15']}.",
+        f"- {'; '.join(pv.describe(meta['provenance']))}",
+        "",
+        "| switch | the reference | the fast path | change | same numbers |",
+        "|---|---|---|---|---|",
+        f"| `Simulation.closing_steps`: the sea trial's flight (three variants, no observers), "
+        f"{c['flight_s']:g} s simulated in {c['chunks']} interleaved chunks "
+        f"| {c['without_ms_per_sim_s']:.2f} ms per simulated s "
+        f"| {c['with_ms_per_sim_s']:.2f} ms per simulated s "
+        f"| {c['with_ms_per_sim_s'] - c['without_ms_per_sim_s']:+.2f} ms "
+        f"({100 * (c['with_ms_per_sim_s'] / c['without_ms_per_sim_s'] - 1):+.1f} %) "
+        f"| {'the same state, bit for bit' if c['same_state'] else 'STATES DIFFER'} |",
+        f"| `LightFieldTable.compiled`: a frame's light field (tables at depth and sun) at "
+        f"{f['depth_m']:.1f} m, best of {f['repeats']} × 100 "
+        f"| {f['numpy_us']:.0f} µs a frame | {f['compiled_us']:.0f} µs a frame "
+        f"| {f['compiled_us'] - f['numpy_us']:+.0f} µs "
+        f"| {'the same fields, bit for bit' if f['same_fields'] else 'FIELDS DIFFER'} |",
+    ]
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "paired_switches.json").write_text(
+        json.dumps({"meta": meta, "closing_steps": closing, "frame_fields": fields}, indent=2)
+        + "\n"
+    )
+    (RESULTS / "paired_switches.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0 if closing["same_state"] and fields["same_fields"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
