@@ -14,6 +14,7 @@ from sensors import registry
 from sensors.imu import DEG_PER_H, DEG_PER_RT_H, IMU_PRESETS, MICRO_G, Imu
 from twin.core import earth
 from twin.core.frames import euler_to_dcm, skew, wrap_pi
+from twin.onboard import eskf as eskf_mod
 from twin.onboard.eskf import (
     DIM,
     Eskf,
@@ -753,3 +754,68 @@ def test_the_compiled_covariance_step_and_update_are_numpys_bit_for_bit() -> Non
             slow.ins._c, slow.ins._v, slow.ins.lat, slow.ins._bg
         )  # fmt: skip
         assert len(fast.rejections) == len(slow.rejections)
+
+
+@pytest.mark.parametrize("free_air", [False, True])
+def test_depth_and_gravity_updates_in_one_dispatch_are_the_two_steps_bit_for_bit(free_air) -> None:
+    # Eskf._propagate_and_update (eskf_kernels.propagate_update_at, issue #31): the covariance
+    # step and the update in one compiled call equal the numpy references one after the other:
+    # the same P, state, NIS and gate decisions, for depth and gravity updates (gated or not).
+    rng = np.random.default_rng(11)
+    cfg = dataclasses.replace(
+        EskfConfig(), ins=InsConfig(free_air_gravity=free_air), q_rate_gain=0.1
+    )
+    applied = gated = 0
+    for trial in range(120):
+        c = euler_to_dcm(*rng.uniform(-0.2, 0.2, 2), rng.uniform(-3.0, 3.0))
+        init = NavState(0.0, LAT, LON, -DEPTH, rng.normal(0.0, 1.0, 3), c)
+        fast, slow = Eskf(cfg, init), Eskf(cfg, init)
+        a = rng.normal(0.0, 1e-2, (DIM, DIM))
+        for e in (fast, slow):
+            e.P = a @ a.T + 1e-6 * np.eye(DIM)
+            e._pending_dt, e._w2_dt = (0.1, 1e-3) if trial % 5 else (0.0, 0.0)
+            e.ins._f = (0.1, -0.2, 9.8)
+        if trial % 2:
+            d = DEPTH + rng.normal(0.0, 0.05 if trial % 3 else 30.0)  # every third: gated out
+            got = fast.update_depth(d)
+            slow._propagate_reference()
+            want = slow._update_reference(
+                "depth", np.array([slow.ins.h + d]), eskf_mod._H_DEPTH, slow._r_depth
+            )
+        else:
+            f_b = slow.ins.c_bn.T @ np.array([0.0, 0.0, slow.ins.gravity(LAT, -DEPTH)])
+            f_b = f_b + rng.normal(0.0, 0.01 if trial % 3 else 0.5, 3)
+            for e in (fast, slow):
+                e._f_sum, e._w_sum, e._n_sum = f_b.tolist(), [0.0, 0.0, 0.0], 1
+            got = fast.update_gravity()
+            if got.reason == "not quasi-static":
+                continue
+            # The reference: the same z and H, then the two steps with numpy.
+            ins = slow.ins
+            g = ins.gravity(ins.lat, ins.h)
+            c0, c1, c2, c3, c4, c5, c6, c7, c8 = ins._c
+            fx, fy, fz = (float(x) for x in f_b)
+            z = np.array(
+                [
+                    -(c0 * fx + c1 * fy + c2 * fz),
+                    -(c3 * fx + c4 * fy + c5 * fz),
+                    g - (c6 * fx + c7 * fy + c8 * fz),
+                ]
+            )
+            h = np.zeros((3, DIM))
+            h[0, 1], h[1, 0] = g, -g
+            if cfg.gravity_models_accel_bias:
+                h[:, 12:15] = -ins.c_bn
+            slow._f_sum, slow._w_sum, slow._n_sum = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0
+            slow._propagate_reference()
+            want = slow._update_reference("gravity", z, h, slow._r_gravity)
+        assert (got.applied, got.nis) == (want.applied, want.nis)
+        np.testing.assert_array_equal(fast.P, slow.P)
+        a_, b_ = fast.ins, slow.ins
+        assert (a_._c, a_._v, a_.lat, a_.lon, a_.h, a_._bg, a_._ba) == (
+            b_._c, b_._v, b_.lat, b_.lon, b_.h, b_._bg, b_._ba
+        )  # fmt: skip
+        assert fast._pending_dt == slow._pending_dt and fast._w2_dt == slow._w2_dt
+        applied += got.applied
+        gated += got.reason == "gate"
+    assert applied > 30 and gated > 5

@@ -74,7 +74,6 @@ from twin.onboard.eskf_algebra import (
 from twin.onboard.eskf_config import GM_SIGMA_PER_BIAS_INSTABILITY, EskfConfig, ImuGrade, Triple
 from twin.onboard.eskf_dynamics import (
     _F_VARYING,
-    BA,
     DIM,
     I_H,
     PHI,
@@ -99,6 +98,12 @@ __all__ = [
     "chi2_threshold",
     "error_dynamics",
 ]
+
+
+# The depth update's H: the height error's row (read only by the update).
+_H_DEPTH = np.zeros((1, DIM))
+_H_DEPTH[0, I_H] = 1.0
+_H_DEPTH.setflags(write=False)
 
 
 class Eskf(EskfReferences):
@@ -170,6 +175,7 @@ class Eskf(EskfReferences):
         self._f_flat = self._f.reshape(-1)  # a view: F is refilled in place
         self._eye = np.eye(DIM)
         self._r_gravity = np.diag(np.array(cfg.r_gravity_mps2) ** 2)
+        self._r_depth = np.array([[cfg.r_depth_m * cfg.r_depth_m]])
         self._r_sun = np.diag(np.array(cfg.r_sun) ** 2)
         self._gate = {d: chi2_threshold(cfg.gate_probability, d) for d in (1, 2, 3)}
         self._pending_dt = 0.0
@@ -342,7 +348,6 @@ class Eskf(EskfReferences):
         ):
             self.counts["not_static"] += 1
             return UpdateResult("gravity", self.t, False, reason="not quasi-static")
-        self.propagate_covariance()
         # z = −C f̄ − g^n, g^n = [0, 0, −γ]; H = [[g^n×] 0 0 0 −C]
         z = np.array(
             [
@@ -351,14 +356,9 @@ class Eskf(EskfReferences):
                 g - (c6 * fx + c7 * fy + c8 * fz),
             ]
         )
-        h = np.zeros((3, DIM))
-        h[0, 1] = g
-        h[1, 0] = -g
-        if cfg.gravity_models_accel_bias:
-            h[:, BA] = ins.c_bn
-            h[:, BA] *= -1.0
+        h = eskf_kernels.gravity_rows(g, ins._c, cfg.gravity_models_accel_bias)
         rr = self._r_gravity if r is None else self._covariance("r", r, 3)
-        return self._update("gravity", z, h, rr)
+        return self._propagate_and_update("gravity", z, h, rr)
 
     def update_sun(
         self,
@@ -445,13 +445,14 @@ class Eskf(EskfReferences):
         d = float(np.asarray(depth_m, dtype=np.float64).reshape(-1)[0])
         if not math.isfinite(d):
             raise ValueError(f"Eskf.update_depth depth_m = {depth_m!r}: must be finite")
-        s = self.config.r_depth_m if sigma_m is None else float(sigma_m)
-        if not (math.isfinite(s) and s > 0):
-            raise ValueError(f"Eskf.update_depth sigma_m = {sigma_m!r}: must be finite and > 0")
-        self.propagate_covariance()
-        h = np.zeros((1, DIM))
-        h[0, I_H] = 1.0
-        return self._update("depth", np.array([self.ins.h + d]), h, np.array([[s * s]]))
+        if sigma_m is None:
+            r = self._r_depth
+        else:
+            s = float(sigma_m)
+            if not (math.isfinite(s) and s > 0):
+                raise ValueError(f"Eskf.update_depth sigma_m = {sigma_m!r}: must be finite and > 0")
+            r = np.array([[s * s]])
+        return self._propagate_and_update("depth", np.array([self.ins.h + d]), _H_DEPTH, r)
 
     def update_scalar(
         self, kind: MeasurementKind, z: float, h: FloatArray, variance: float
@@ -526,18 +527,61 @@ class Eskf(EskfReferences):
         # Compiled (eskf_kernels.update): _update_reference's arithmetic bit for bit; an S
         # without a closed-form inverse (m > 3, or not positive definite) takes the numpy path.
         # The INS's correction (_feedback's) in the same dispatch when it applies.
-        threshold = self._gate[len(z)]
         ins = self.ins
-        status, nis, p, state = eskf_kernels.update_at(
-            self.P, h, r, z, threshold, ins._c, ins._v, ins.lat, ins.lon, ins.h, ins._bg, ins._ba
-        )
+        status, nis, p1, state = eskf_kernels.update_at(
+            self.P, h, r, z, self._gate[len(z)], ins._c, ins._v, ins.lat, ins.lon, ins.h,
+            ins._bg, ins._ba,
+        )  # fmt: skip
+        return self._applied(kind, status, nis, self.P, p1, state, z, h, r)
+
+    def _propagate_and_update(
+        self, kind: MeasurementKind, z: FloatArray, h: FloatArray, r: FloatArray
+    ) -> UpdateResult:
+        """:meth:`propagate_covariance`, then :meth:`_update`: one compiled dispatch for both.
+
+        (:func:`eskf_kernels.propagate_update_at`, the same calls in the same order), where the
+        INS's gravity is the one the compiled F knows; else the two methods.
+        """
+        ins = self.ins
+        if not ins.standard_gravity:
+            self.propagate_covariance()
+            return self._update(kind, z, h, r)
+        dt = self._pending_dt
+        q_diag, qc = self._rate_q(dt) if dt > 0.0 else (self._q_diag, self._qc)
+        status, nis, p, p1, state = eskf_kernels.propagate_update_at(
+            dt, self.P, self._f, _F_VARYING, ins.lat, ins.lon, ins.h, ins._v, ins._c, ins._f,
+            ins._bg, ins._ba, ins.config.free_air_gravity, EARTH_CONSTANTS, q_diag, qc,
+            self._eye, h, r, z, self._gate[len(z)],
+        )  # fmt: skip
+        if dt > 0.0:
+            self._pending_dt = 0.0
+        return self._applied(kind, status, nis, p, p1, state, z, h, r)
+
+    def _applied(
+        self,
+        kind: MeasurementKind,
+        status: int,
+        nis: float,
+        p: FloatArray,
+        p1: FloatArray,
+        state: tuple[Any, ...],
+        z: FloatArray,
+        h: FloatArray,
+        r: FloatArray,
+    ) -> UpdateResult:
+        """A compiled update's outcome taken.
+
+        P before the update, and when it applied, P⁺ and the corrected state; the numpy path
+        for status 0 (no closed-form S⁻¹).
+        """
+        self.P = p
         if status == 0:
             return self._update_reference(kind, z, h, r)
         if status == 1:
-            self.rejections.append(Rejection(self.t, kind, nis, threshold))
+            self.rejections.append(Rejection(self.t, kind, nis, self._gate[len(z)]))
             return UpdateResult(kind, self.t, False, nis, "gate")
-        self.P = p
-        ins.set_corrected(state)
+        self.P = p1
+        self.ins.set_corrected(state)
         self.counts[kind] = self.counts.get(kind, 0) + 1
         return UpdateResult(kind, self.t, True, nis)
 

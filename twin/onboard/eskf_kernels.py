@@ -121,3 +121,52 @@ def update_at(p, hm, r, z, threshold, c, v, lat, lon, h, bg, ba):  # type: ignor
     if status == 2:
         return status, nis, p1, mechanization.correct(c, v, lat, lon, h, bg, ba, dx)
     return status, nis, p1, (c, v, lat, lon, h, bg, ba)
+
+
+@njit(cache=True)
+def propagate_update_at(  # type: ignore[no-untyped-def]
+    dt,
+    p,
+    f,
+    index,
+    lat,
+    lon,
+    h,
+    v,
+    c,
+    f_b,
+    bg,
+    ba,
+    free_air,
+    earth,
+    q_diag,
+    qc,
+    eye,
+    hm,
+    r,
+    z,
+    threshold,
+):
+    """:func:`propagate_at` (when ``dt`` > 0) then :func:`update_at`, in one dispatch.
+
+    ``Eskf.propagate_covariance`` then ``Eskf._update``: the same calls in the same order.
+    Returns (status, NIS, the propagated P, P⁺, the state), P⁺ and the state as
+    :func:`update_at` gives them; the propagated P for the numpy path (status 0).
+    """
+    if dt > 0.0:
+        p = propagate_at(p, f, index, lat, h, v, c, f_b, free_air, earth, dt, q_diag, qc, eye)
+    status, nis, p1, state = update_at(p, hm, r, z, threshold, c, v, lat, lon, h, bg, ba)
+    return status, nis, p, p1, state
+
+
+@njit(cache=True)
+def gravity_rows(g, c, models_accel_bias):  # type: ignore[no-untyped-def]
+    """The gravity update's H (3 × 15): [[g^n×] 0 0 0 −C], −C only when it models b_a."""
+    hm = np.zeros((3, 15))
+    hm[0, 1] = g
+    hm[1, 0] = -g
+    if models_accel_bias:
+        for i in range(3):
+            for j in range(3):
+                hm[i, 12 + j] = -c[3 * i + j]
+    return hm
