@@ -110,7 +110,8 @@ STAGES: tuple[tuple[str, str, str, str, str, str], ...] = (
     (_FILTER_K, "readings to the filters", "twin.onboard.mechanization", "", "advance_samples",
      "step"),
     *((_FILTER_K, "readings to the filters", "twin.onboard.eskf_kernels", "", name, "step")
-      for name in ("propagate", "update", "propagate_at", "update_at")),
+      for name in ("propagate", "update", "propagate_at", "update_at", "propagate_update_at",
+                   "gravity_rows")),
     (_CHAIN_K, "compiled chain (scattering kernel, sky, Fresnel, lens)",
      "sensors.polarimeter.chain_kernel", "", "chain_points", "frame"),
     # The frame's and the compass's compiled and C work, for the limit (:func:`limit`): every
