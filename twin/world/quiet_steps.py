@@ -6,7 +6,9 @@ order), and (decided by :class:`twin.sim.step.Simulation`) no filter, observer o
 acts on it beyond taking its readings. :class:`QuietSteps`
 says how many of the next steps are quiet on the world's side and flies them through
 :func:`twin.world.quiet_steps_kernel.fly`: :meth:`Plant.step` and :meth:`Imu.sample` in one
-compiled call, the same numbers bit for bit (``tests/sim/test_quiet_steps.py``).
+compiled call, the same numbers bit for bit (``tests/sim/test_quiet_steps.py``). A block may
+end with the step after its quiet ones (:meth:`QuietSteps.fly_closing`): that step's physics and
+IMU sample are flown with them, and the suite's poll of it, given that sample, does the rest.
 
 It applies to the built-in configuration only: the plant's own step with the compiled wrench
 and no current, the built-in command limiter, and one :class:`Imu` of its own class (compiled
