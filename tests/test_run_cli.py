@@ -158,6 +158,17 @@ def test_cli_run_end_to_end(tmp_path: Path) -> None:
 
 
 def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Path) -> None:
+    # A day of station keeping: no mission end, and far longer than any wait below even at
+    # 100x real time. (The lawnmower's 878 s used to serve; once the loop ran at ~200x without
+    # the camera, it finished inside the 3 s wait and CI saw a complete run.)
+    day = (
+        scenarios.shipped()["station_keeping_10m"]
+        .read_text()
+        .replace("duration_s = 600.0", "duration_s = 86400.0")
+    )
+    assert "86400" in day
+    f = tmp_path / "day.toml"
+    f.write_text(day)
     out = tmp_path / "out"
     proc = subprocess.Popen(
         [
@@ -165,7 +176,7 @@ def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Pat
             "-m",
             "twin.app.cli",
             "run",
-            "lawnmower_10m",
+            str(f),
             "--out",
             str(out),
             "--quiet",
@@ -188,7 +199,7 @@ def test_ctrl_c_leaves_a_readable_recording_and_incomplete_metrics(tmp_path: Pat
     assert proc.returncode == 130, err
     m = json.loads((out / "metrics.json").read_text())
     assert m["complete"] is False and m["status"] == "interrupted"
-    assert 0 < m["sim_time_s"] < 1080
+    assert 0 < m["sim_time_s"] < 86400
     ents = entities(out / "recording.rrd")  # footer written: store() reads it
     assert ents["/world/auv"] > 0
 
