@@ -185,7 +185,15 @@ def main() -> int:
     ap.add_argument("--baseline", metavar="REV", help="also run git revision REV, interleaved")
     ap.add_argument("--repeats", type=int, default=1, help="runs per row and tree (median)")
     ap.add_argument("--mission-s", type=float, default=MISSION_S, help="simulated seconds a row")
+    ap.add_argument(
+        "--name",
+        default="sea_trial_rtf",
+        help="the results files' stem in benchmarks/results (default: sea_trial_rtf, the file "
+        "the README quotes; another name keeps a second comparison, e.g. one stop's alone)",
+    )
     args = ap.parse_args()
+    if not args.name or "/" in args.name or args.name.startswith("."):
+        ap.error(f"--name: {args.name!r}; allowed: a file stem without '/' or a leading '.'")
     trees: dict[str, Path] = {"current": ROOT}
     tmp = tempfile.TemporaryDirectory() if args.baseline else None
     try:
@@ -237,14 +245,15 @@ def main() -> int:
         "repeats": args.repeats,
         "baseline": args.baseline,
         "mission_s": args.mission_s,
+        "name": args.name,
         "provenance": pv.provenance(),
     }
     md = _report(results, meta)
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "sea_trial_rtf.md").write_text("\n".join(md) + "\n")
+    (RESULTS / f"{args.name}.md").write_text("\n".join(md) + "\n")
     slim = {k: [{x: y for x, y in r.items() if x != "outputs"} for r in v]
             for k, v in results.items()}  # fmt: skip
-    (RESULTS / "sea_trial_rtf.json").write_text(
+    (RESULTS / f"{args.name}.json").write_text(
         json.dumps({"meta": meta, "rows": slim}, indent=2, default=str) + "\n"
     )
     print("\n".join(md))
@@ -268,6 +277,8 @@ def _report(results: dict[str, list[dict[str, Any]]], meta: dict[str, Any]) -> l
     cmd = "python benchmarks/sea_trial_rtf.py"
     if meta["baseline"]:
         cmd += f" --baseline {meta['baseline']}"
+    if meta.get("name", "sea_trial_rtf") != "sea_trial_rtf":
+        cmd += f" --name {meta['name']}"
     md = [
         "# Sea trial real-time factor (issues #5, #10, #31)",
         "",
