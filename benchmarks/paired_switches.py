@@ -1,9 +1,9 @@
 """Fast paths that keep their reference behind a switch, timed against it in one process (#31).
 
-Three of issue #31's changes keep the path they replaced, behind a class switch, as the reference
+Two of issue #31's changes keep the path they replaced, behind a class switch, as the reference
 a test holds them to bit for bit. Their gains are a few per cent of a sea trial, less than this
 VM's run-to-run spread (±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot see them;
-here both paths of each run in one process on one core, their rounds interleaved, so that the
+here the two paths run in one process on one core, their rounds interleaved, so that the
 machine's hour affects both alike:
 
 * ``Simulation.closing_steps``: a block of quiet steps ends with the step after them (its
@@ -16,11 +16,6 @@ machine's hour affects both alike:
   (``sensors/polarimeter/optics/rt/frame_kernel.py``), or with numpy. The polarimeter's light
   field of a frame (``Polarimeter._frame_constants``, at the sea trial's camera, depth and sun)
   is timed both ways, best of ``--repeats`` × 100 calls, interleaved; the fields are compared.
-* ``analysis_grid.COMPILED_BLOCKS``: a 2×2-block grid's intensity and saturation mask in one
-  compiled pass (``twin/onboard/compass/block_kernel.py``), or with OpenCV's resizes. POL's and
-  LIG's solves of one sea-trial frame (each variant's method, calibration and attitude from its
-  filter, as ``Navigator._compass`` asks) are timed both ways, best of ``--repeats`` × 20 calls,
-  interleaved; the fixes are compared.
 
     OMP_NUM_THREADS=1 taskset -c 1 python benchmarks/paired_switches.py [--flight-s 300]
 
@@ -31,9 +26,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime as dt
 import json
-import math
 import os
 import platform
 import sys
@@ -46,9 +39,6 @@ import numpy as np
 
 import scenarios
 from sensors.polarimeter.optics.rt import table as rt_table
-from twin.core.ephemeris import sun_direction_enu
-from twin.onboard.compass import analysis_grid
-from twin.onboard.compass.base import CompassContext
 from twin.record import provenance as pv
 from twin.sim.build import build_simulation
 from twin.sim.step import Simulation
@@ -147,48 +137,6 @@ def frame_fields(repeats: int) -> dict[str, Any]:
     }
 
 
-def compass_blocks(repeats: int) -> dict[str, Any]:
-    """µs per frame of POL's and LIG's solves, the blocks compiled or resized (docstring)."""
-    sim = build_simulation(_scenario())
-    sim.fly(12.0)
-    pol = next(s for s in sim.suite.sensors if type(s).__name__ == "Polarimeter")
-    raw = pol.sample(sim.plant, np.random.default_rng(0))["raw"]
-    solves = []
-    for nav in sim.navigators.values():
-        if nav.method is None:
-            continue
-        k, est = nav.knowledge, nav.filter.estimate()
-        utc = k.start_utc + dt.timedelta(seconds=sim.plant.t)
-        lat, lon = math.degrees(est.lat_rad), math.degrees(est.lon_rad)
-        ctx = CompassContext(
-            utc=utc, latitude_deg=lat, longitude_deg=lon, roll_rad=est.roll,
-            pitch_rad=est.pitch, depth_m=max(est.depth_m, 0.0), water_index=k.water_index,
-            sun_enu=sun_direction_enu(utc, lat, lon),
-        )  # fmt: skip
-        solves.append((nav.method, k.calibration, ctx))
-
-    def call() -> list[Any]:
-        return [m.solve(raw, cal, ctx) for m, cal, ctx in solves]
-
-    best = {False: float("inf"), True: float("inf")}
-    fixes: dict[bool, str] = {}
-    try:
-        for _ in range(repeats):
-            for flag in (False, True):
-                analysis_grid.COMPILED_BLOCKS = flag
-                fixes[flag] = repr([dataclasses.asdict(f) for f in call()])
-                best[flag] = min(best[flag], min(timeit.repeat(call, number=20, repeat=1)) / 20)
-    finally:
-        analysis_grid.COMPILED_BLOCKS = True
-    return {
-        "methods": [type(m).__name__ for m, _, _ in solves],
-        "repeats": repeats,
-        "resized_us": 1e6 * best[False],
-        "compiled_us": 1e6 * best[True],
-        "same_fixes": fixes[False] == fixes[True],
-    }
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--flight-s", type=float, default=300.0)
@@ -201,7 +149,6 @@ def main() -> int:
         pass
     closing = closing_steps(args.flight_s, args.chunk_s)
     fields = frame_fields(args.repeats)
-    blocks = compass_blocks(args.repeats)
     meta = {
         "machine": platform.platform(),
         "cpu_affinity": sorted(os.sched_getaffinity(0)),
@@ -210,7 +157,7 @@ def main() -> int:
         "args": vars(args),
         "provenance": pv.provenance(),
     }
-    c, f, b = closing, fields, blocks
+    c, f = closing, fields
     lines = [
         "# Fast paths against the references behind their switches, in one process (issue #31)",
         "",
@@ -234,23 +181,15 @@ def main() -> int:
         f"| {f['numpy_us']:.0f} µs a frame | {f['compiled_us']:.0f} µs a frame "
         f"| {f['compiled_us'] - f['numpy_us']:+.0f} µs "
         f"| {'the same fields, bit for bit' if f['same_fields'] else 'FIELDS DIFFER'} |",
-        f"| `analysis_grid.COMPILED_BLOCKS`: one sea-trial frame's compass solves "
-        f"({', '.join(b['methods'])}), best of {b['repeats']} × 20 "
-        f"| {b['resized_us']:.0f} µs a frame | {b['compiled_us']:.0f} µs a frame "
-        f"| {b['compiled_us'] - b['resized_us']:+.0f} µs "
-        f"| {'the same fixes, bit for bit' if b['same_fixes'] else 'FIXES DIFFER'} |",
     ]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "paired_switches.json").write_text(
-        json.dumps(
-            {"meta": meta, "closing_steps": closing, "frame_fields": fields, "blocks": blocks},
-            indent=2,
-        )
+        json.dumps({"meta": meta, "closing_steps": closing, "frame_fields": fields}, indent=2)
         + "\n"
     )
     (RESULTS / "paired_switches.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    return 0 if closing["same_state"] and fields["same_fields"] and blocks["same_fixes"] else 1
+    return 0 if closing["same_state"] and fields["same_fields"] else 1
 
 
 if __name__ == "__main__":

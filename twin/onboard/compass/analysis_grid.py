@@ -27,7 +27,6 @@ from twin.onboard.compass.base import (
     CompassContext,
     Frame,
 )
-from twin.onboard.compass.block_kernel import s0_and_mask
 from twin.onboard.compass.geometry import critical_angle
 
 
@@ -122,9 +121,6 @@ def block_intensity(
     analysis pixel is the mean of its own m × m raw block; tested).
     """
     m = geo.m
-    blocks = _compiled_blocks(raw, calibration, geo, box, True)
-    if blocks is not None:
-        return blocks
     r = raw_blocks(raw, geo, box)
     h, w = r.shape[0] // m, r.shape[1] // m
     s0 = cv2.resize(r.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)
@@ -141,56 +137,11 @@ def block_saturation(
 ) -> NDArray[np.bool_]:
     """Analysis pixels whose m×m raw block holds a clipped value (≥ ``saturation_dn``)."""
     m = geo.m
-    blocks = _compiled_blocks(raw, calibration, geo, box, False)
-    if blocks is not None:
-        return blocks[1]
     r = raw_blocks(raw, geo, box)
     h, w = r.shape[0] // m, r.shape[1] // m
     sat = (r >= calibration.saturation_dn).view(np.uint8) * np.uint8(255)
     # 255 per clipped pixel so that INTER_AREA's rounded block mean cannot round one away.
     return cv2.resize(sat, (w, h), interpolation=cv2.INTER_AREA) > 0
-
-
-#: A 2×2-block grid's intensity and mask in one compiled pass where its arithmetic is exact
-#: (:mod:`~twin.onboard.compass.block_kernel`: the resizes' numbers bit for bit); False: the
-#: OpenCV resizes everywhere, the reference it is tested against.
-COMPILED_BLOCKS = True
-
-
-def _compiled_blocks(
-    raw: NDArray[np.generic],
-    calibration: CameraCalibration,
-    geo: AnalysisGeometry,
-    box: tuple[slice, slice] | None,
-    with_s0: bool,
-) -> tuple[NDArray[np.float32], NDArray[np.bool_]] | None:
-    """:func:`block_intensity`'s (``with_s0``; else an empty intensity) and the mask, compiled.
-
-    None where :mod:`~twin.onboard.compass.block_kernel` does not apply: blocks other than 2×2,
-    a mosaic not of uint8 or uint16, a black level not an integer below 2¹⁶.
-    """
-    black = calibration.black_level_dn
-    if (
-        not COMPILED_BLOCKS
-        or geo.m != 2
-        or not isinstance(raw, np.ndarray)
-        or raw.dtype not in (np.uint8, np.uint16)
-        or not (float(black).is_integer() and abs(black) < 2**16)
-    ):
-        return None
-    rows, cols = (slice(None), slice(None)) if box is None else box
-    r0, r1, rs = rows.indices(geo.cal.height_px)
-    c0, c1, cs = cols.indices(geo.cal.width_px)
-    if rs != 1 or cs != 1 or raw.shape[0] < 2 * r1 or raw.shape[1] < 2 * c1:
-        return None  # (the kernel reads raw unchecked: only whole blocks inside it)
-    shape = (max(r1 - r0, 0), max(c1 - c0, 0))
-    s0 = np.empty(shape if with_s0 else (0, 0), np.float32)
-    sat = np.empty(shape, bool)
-    s0_and_mask(
-        raw, r0, c0, shape[0], shape[1], np.float32(black), float(calibration.saturation_dn),
-        with_s0, s0, sat,
-    )  # fmt: skip
-    return s0, sat
 
 
 def raw_blocks(
