@@ -410,9 +410,11 @@ class DoFPSensor:
         seeds = rng.integers(0, 2**31 - 1, size=len(bands)) if noisy else None
         out = np.empty((h, w), np.uint16)
         z = sd = index = None
+        no_rows = np.zeros(self._band_rows, np.float32)
         for b, r0 in enumerate(bands):
             r1 = min(r0 + self._band_rows, h)
             lam = self._mean_band(stokes, r0, r1, t_s, dark_e)
+            rows = None
             if noisy:
                 assert seeds is not None
                 if z is None or z.shape != lam.shape:
@@ -448,12 +450,15 @@ class DoFPSensor:
                 if s.row_noise_e > 0:  # drawn after z: the pixel noise does not depend on it
                     rows = np.empty((r1 - r0, 1), np.float32)
                     cv2.randn(rows, 0.0, float(s.row_noise_e))
-                    lam += rows
+                    if not self._kernels:
+                        lam += rows  # (to_dn adds them as it reads λ)
             band_out = out[r0:r1]
             if self._kernels:
                 dsnu = self._fp.dsnu_e
                 mk.to_dn(
                     lam.reshape(-1),
+                    no_rows[: r1 - r0] if rows is None else rows.reshape(-1),
+                    w,
                     lam.reshape(-1) if dsnu is None else dsnu[r0:r1].reshape(-1),
                     dsnu is not None,
                     np.float32(inv_k),
