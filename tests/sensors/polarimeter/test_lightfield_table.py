@@ -19,6 +19,28 @@ from sensors.polarimeter.optics.sky import SkySpec
 N = tb.TABLE_INDEX
 
 
+def test_a_run_loads_only_its_own_shipped_tables():
+    """table_for / sky_table_for read one water's arrays, not the file's ten (start-up, #31)."""
+    caches = (tb._shipped, tb.table_for, skt._shipped_skies, skt.sky_table_for)
+    for c in caches:
+        c.cache_clear()
+    try:
+        key = tb.WaterKey.of(wa.jerlov_water("II"))
+        t = tb.table_for(key)
+        sky = skt.sky_table_for(key, skt.SkyKey.of(SkySpec()))
+        assert t.key == key and sky.water == key and sky.sky == skt.SkyKey.of(SkySpec())
+        assert tb.table_for.cache_info().currsize == 1
+        assert tb._shipped.cache_info().currsize == 0
+        assert skt._shipped_skies.cache_info().currsize == 0
+        # The loader of every shipped table hands out the same objects.
+        whole = tb._shipped()[key]
+        assert whole is t and len(tb._shipped()) == len(tb._shipped_names()) == 10
+        assert skt._shipped_skies()[(key, sky.sky)] is sky
+    finally:
+        for c in caches:
+            c.cache_clear()
+
+
 def test_shipped_tables_cover_every_jerlov_type_with_small_errors():
     shipped = tb._shipped()
     for name in wa.JERLOV_TYPES:

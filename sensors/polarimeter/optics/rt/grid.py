@@ -83,6 +83,11 @@ class WaterKey:
             ),
         )
 
+    @classmethod
+    def from_array(cls, k: object) -> WaterKey:
+        """From a table's stored ``key`` array (rounded as :meth:`of` rounds)."""
+        return cls(*(round(float(v), 9) for v in k))  # type: ignore[attr-defined]
+
     def digest(self) -> str:
         """A short stable name for the cache."""
         text = (

@@ -28,7 +28,6 @@ from sensors.polarimeter.optics.rt import reference, store
 from sensors.polarimeter.optics.rt.grid import DATA_FILE, SUN_ZENITH_AIR_DEG, TABLE_PLANES, WaterKey
 from sensors.polarimeter.optics.rt.poles import smooth
 from sensors.polarimeter.optics.rt.store import cache_dir, per_ed, run_jobs, save
-from sensors.polarimeter.optics.rt.table import _shipped
 from sensors.polarimeter.optics.sky import SkySpec
 from twin.core.arrays import FloatArray
 
@@ -59,6 +58,14 @@ class SkyKey:
             round(float(sky.dop_max), 9),
             round(float(sky.berry_delta_rad), 9),
         )
+
+    @classmethod
+    def from_array(cls, k: np.ndarray) -> SkyKey:
+        """From a sky table's stored ``sky_key`` array (:meth:`SkyTable.arrays`)."""
+        return cls(
+            int(k[0]), "berry" if k[1] > 0.5 else "rayleigh", round(float(k[2]), 9),
+            round(float(k[3]), 9),
+        )  # fmt: skip
 
     def spec(self) -> SkySpec:
         """A :class:`SkySpec` with this shape (unit zenith radiance, no disc)."""
@@ -186,16 +193,10 @@ class SkyTable:
         cls, d: dict[str, np.ndarray] | np.lib.npyio.NpzFile, water: WaterKey, prefix: str = ""
     ) -> SkyTable:
         """Inverse of :meth:`arrays`."""
-        k = d[f"{prefix}sky_key"]
         ed = np.asarray(d[f"{prefix}e_down"], dtype=float)
         return cls(
             water=water,
-            sky=SkyKey(
-                int(k[0]),
-                "berry" if k[1] > 0.5 else "rayleigh",
-                round(float(k[2]), 9),
-                round(float(k[3]), 9),
-            ),
+            sky=SkyKey.from_array(d[f"{prefix}sky_key"]),
             field=np.nan_to_num(
                 np.asarray(d[f"{prefix}field_per_ed"], dtype=np.float32)
                 * ed[:, :, None, None, None]
@@ -215,27 +216,32 @@ class SkyTable:
 
 
 @functools.lru_cache(maxsize=1)
-def _shipped_skies() -> dict[tuple[WaterKey, SkyKey], SkyTable]:
+def _shipped_sky_names() -> dict[tuple[WaterKey, SkyKey], str]:
+    """The shipped skies' (water, sky) and their names in ``DATA_FILE``, without their tables."""
     if not DATA_FILE.exists():
         return {}
-    waters = {k: k for k in _shipped()}
-    skies = {}
+    out = {}
     with np.load(DATA_FILE) as d:
         for name in (str(n) for n in d["names"]):
-            if f"{name}/{SKY_PREFIX}sky_key" not in d:
-                continue
-            key = WaterKey(*(round(float(v), 9) for v in d[f"{name}/key"]))
-            st = SkyTable.from_arrays(d, waters.get(key, key), prefix=f"{name}/{SKY_PREFIX}")
-            skies[(st.water, st.sky)] = st
-    return skies
+            if f"{name}/{SKY_PREFIX}sky_key" in d:
+                sky = SkyKey.from_array(d[f"{name}/{SKY_PREFIX}sky_key"])
+                out[(WaterKey.from_array(d[f"{name}/key"]), sky)] = name
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _shipped_skies() -> dict[tuple[WaterKey, SkyKey], SkyTable]:
+    """Every shipped sky table (tests; a run loads its own, lazily)."""
+    return {key: sky_table_for(*key) for key in _shipped_sky_names()}
 
 
 @functools.lru_cache(maxsize=32)
 def sky_table_for(water: WaterKey, sky: SkyKey) -> SkyTable:
     """The scattered light of a sky over a water: shipped, cached, or computed now (and cached)."""
-    shipped = _shipped_skies()
-    if (water, sky) in shipped:
-        return shipped[(water, sky)]
+    name = _shipped_sky_names().get((water, sky))
+    if name is not None:
+        with np.load(DATA_FILE) as d:
+            return SkyTable.from_arrays(d, water, prefix=f"{name}/{SKY_PREFIX}")
     path = cache_dir() / f"sky-{sky.digest(water)}.npz"
     if path.exists():
         with np.load(path) as d:
