@@ -69,9 +69,10 @@ VM: numpy's ``Generator.poisson`` takes 47 ns a sample at λ = 1000 and 91 ns at
 Work is done in bands of rows so the temporaries stay in cache; the per-pixel arithmetic runs in
 two compiled passes (:mod:`sensors.polarimeter.unit.mosaic_kernel`: the OpenCV chain's raw frames
 bit
-for bit). Measured on one core of the shared dev VM, 2026-12-06
-(``benchmarks/results/polarimeter_frame.md``, median of 3 rounds): 24.5 ms a 2448×2048 frame
-(30.8 ms with the OpenCV chain), of which ~18 ms draw 5 M normals; 1.5 ms a 612×512 frame (1.9).
+for bit). Measured on one core of the shared dev VM, 2026-12-07
+(``benchmarks/results/polarimeter_frame.md``, median of 3 rounds): 22.9 ms a 2448×2048 frame,
+of which 11.6 ms ``cv2.randn``'s 5 M normals (line profile); 1.3 ms a 612×512 frame. (With the
+OpenCV chain, 2026-12-06: 30.8 and 1.9 ms.)
 
 Sources: Sony IMX250MZR/IMX264MZR facts and the noise model: ../shared/reference/optics.md §3.1–3.3
 (EMVA 1288 figures of the mono IMX250 via MATRIX VISION mvBlueFOX3-2051); PHX050S-P: extinction
