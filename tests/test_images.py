@@ -26,8 +26,10 @@ def test_aop_and_dop_pictures_are_opencvs_colour_maps_byte_for_byte(masked: bool
     dop = rng.uniform(-0.1, 1.1, (256, 306)).astype(np.float32)
     aop[0, :5] = np.nan  # a dark pixel's angle
     mask = rng.uniform(size=(256, 306)) > 0.3 if masked else None
-    a_idx = np.clip((aop + math.pi / 2) / math.pi * 255.0, 0, 255).astype(np.uint8)
+    a_idx = np.clip(np.nan_to_num((aop + math.pi / 2) / math.pi * 255.0), 0, 255).astype(np.uint8)
     d_idx = np.clip(dop * 255.0, 0, 255).astype(np.uint8)
+    dop[1, :3] = np.nan  # and a dark pixel's DoP: both draw in the map's first colour
+    d_idx[1, :3] = 0
     aop_img = images.aop_rgb(aop, mask)
     dop_img = images.dop_rgb(dop, mask)
     assert aop_img.dtype == np.uint8 and aop_img.shape == (256, 306, 3)

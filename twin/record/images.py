@@ -96,17 +96,26 @@ def _mapped(idx: NDArray[np.uint8], colormap: int, mask: NDArray[np.bool_] | Non
     return cv2.copyTo(rgb, np.ascontiguousarray(mask, dtype=bool).view(np.uint8))
 
 
+def _index(x: NDArray[np.float32]) -> NDArray[np.uint8]:
+    """A colour index in [0, 255] (truncated) of ``x``, a temporary it overwrites; NaN → 0.
+
+    ``np.clip`` keeps a NaN, and casting it to uint8 is undefined (numpy warns; x86 gives 0):
+    ``fmax`` takes the 0 instead, so every platform draws such a pixel in the map's first colour.
+    """
+    np.fmax(x, 0.0, out=x)
+    np.fmin(x, 255.0, out=x)
+    return x.astype(np.uint8)
+
+
 def aop_rgb(aop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
-    """AoP in [−π/2, π/2) as RGB with a cyclic map; masked-out pixels black."""
+    """AoP in [−π/2, π/2) as RGB, a cyclic map; masked-out pixels black, NaN the first colour."""
     a = np.asarray(aop, dtype=np.float32)
-    idx = np.clip((a + math.pi / 2) / math.pi * 255.0, 0, 255).astype(np.uint8)
-    return _mapped(idx, cv2.COLORMAP_TWILIGHT_SHIFTED, mask)
+    return _mapped(_index((a + math.pi / 2) / math.pi * 255.0), cv2.COLORMAP_TWILIGHT_SHIFTED, mask)
 
 
 def dop_rgb(dop: NDArray[np.floating], mask: NDArray[np.bool_] | None = None) -> NDArray[np.uint8]:
-    """DoP in [0, 1] as RGB (viridis); masked-out pixels black."""
-    idx = np.clip(np.asarray(dop, dtype=np.float32) * 255.0, 0, 255).astype(np.uint8)
-    return _mapped(idx, cv2.COLORMAP_VIRIDIS, mask)
+    """DoP in [0, 1] as RGB (viridis); masked-out pixels black, NaN the first colour."""
+    return _mapped(_index(np.asarray(dop, dtype=np.float32) * 255.0), cv2.COLORMAP_VIRIDIS, mask)
 
 
 def signal_mask(pol: PolarizationImage, min_s0: float = 20.0) -> NDArray[np.bool_]:
