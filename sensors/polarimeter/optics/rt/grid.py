@@ -12,6 +12,7 @@ is never read (:meth:`WaterKey.digest` names the grid and :data:`MODEL_VERSION`)
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,9 +85,9 @@ class WaterKey:
         )
 
     @classmethod
-    def from_array(cls, k: object) -> WaterKey:
+    def from_array(cls, k: Iterable[float]) -> WaterKey:
         """From a table's stored ``key`` array (rounded as :meth:`of` rounds)."""
-        return cls(*(round(float(v), 9) for v in k))  # type: ignore[attr-defined]
+        return cls(*(round(float(v), 9) for v in k))
 
     def digest(self) -> str:
         """A short stable name for the cache."""
