@@ -25,7 +25,7 @@ def _state(f: Eskf) -> tuple:
     return (
         ins.t, ins.lat, ins.lon, ins.h, ins._v, ins._c, ins._bg, ins._ba, ins._w, ins._f,
         ins._steps, ins.skipped, f._pending_dt, f._n_sum, f._w2_dt, tuple(f._f_sum),
-        tuple(f._w_sum), f.P.tobytes(), dict(f.counts),
+        tuple(f._w_sum), f.P.tobytes(), dict(f.counts), list(f.rejections),
     )  # fmt: skip
 
 
@@ -33,7 +33,9 @@ def test_a_sea_trials_filters_are_the_one_by_one_paths_bit_for_bit(monkeypatch):
     """Three variants flown 12 s (compass frames, depth and gravity updates, covariance steps).
 
     The batched run takes most IMU samples through the simulation's fan-out to every variant at
-    once (Navigator.fan_out_imu); the reference takes each sample one by one in each variant.
+    once (Navigator.fan_out_imu), its depth and gravity updates in the batch's compiled calls;
+    the reference takes each sample one by one in each variant, each update by the filter's
+    Python method when it comes.
     """
     sc = scenarios.load("sea_trial_10m")
     sc = dataclasses.replace(
@@ -44,6 +46,7 @@ def test_a_sea_trials_filters_are_the_one_by_one_paths_bit_for_bit(monkeypatch):
     with monkeypatch.context() as m:
         m.setattr(imu_batch, "batchable", lambda reading: False)
         m.setattr("twin.onboard.navigator.batchable", lambda reading: False)
+        m.setattr(imu_batch.ImuBatch, "takes_updates", lambda self: False)
         single = build_simulation(sc, 3)
         single.fly(12.03)
     for name, nav in batched.navigators.items():
@@ -212,3 +215,84 @@ def test_a_batch_longer_than_its_arrays_grows_and_keeps_every_sample():
     for r in stream:
         ref.predict_reading(r)
     assert _state(batch.filter) == _state(ref)
+
+
+def _with_depths(n: int, rng: np.random.Generator) -> list[Reading]:
+    """IMU samples at 100 Hz, a turn at 1–1.5 s (not quasi-static), depth readings at 10 Hz
+    between samples (one of them 40 m off: gated out) and one at the stream's end."""
+    out = []
+    for k in range(1, n + 1):
+        r = _imu(0.01 * k, rng)
+        if 100 <= k < 150:
+            r.values["angular_rate"][2] += 0.3
+        out.append(r)
+        if k % 10 == 4 or k == n:
+            depth = 10.0 + rng.normal(0.0, 0.05) + (40.0 if k == 254 else 0.0)
+            t = 0.01 * k + 0.003
+            out.append(Reading("depth", t, t, {"depth_m": np.array([depth])}))
+    return out
+
+
+@pytest.mark.parametrize("fan_out", [False, True])
+def test_queued_depth_updates_and_gravity_in_one_call_are_the_filters_own_updates(fan_out: bool):
+    """The batch's compiled work (samples, the depth updates queued among them, the gravity
+    update after them) against the filter's Python updates, each made when its reading came:
+    the same state bit for bit, the same rejections and counts, updates of every outcome."""
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    stream = _with_depths(400, np.random.default_rng(5))
+    nav = Navigator("ins", know, init)
+    ref = Navigator("ins", know, init)
+    ref._batch.takes_updates = lambda: False  # type: ignore[union-attr, method-assign]
+    for r in stream:
+        if not (fan_out and r.sensor == "imu" and Navigator.fan_out_imu([nav], r)):
+            nav.on_reading(r)
+        ref.on_reading(r)
+    assert nav._batch.pending  # the last depth reading waits for the next look
+    a, b = nav.filter, ref.filter
+    assert _state(a) == _state(b)
+    assert (nav._gravity_k, nav._next_gravity_t) == (ref._gravity_k, ref._next_gravity_t)
+    assert a.counts["depth"] == 40 and a.counts["gravity"] > 20 and a.counts["not_static"] > 0
+    assert [(x.t, x.kind) for x in a.rejections] == [(pytest.approx(2.54), "depth")]
+
+
+def test_updates_the_compiled_algebra_does_not_take_are_the_filters_python_paths(monkeypatch):
+    """An innovation covariance with no closed-form inverse (P not finite) and a non-finite
+    mean sample go to the filter's own methods: the same outcome as the Python updates."""
+    numpy_path = []
+    reference = Eskf._update_reference
+
+    def counted(self, *a, **k):
+        numpy_path.append(self.t)
+        return reference(self, *a, **k)
+
+    monkeypatch.setattr(Eskf, "_update_reference", counted)
+    know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
+    init = NavState(0.0, LAT, math.radians(122.06), -10.0)
+    stream = _with_depths(60, np.random.default_rng(9))
+    outcomes = []
+    for python in (False, True):
+        nav = Navigator("ins", know, init)
+        if python:
+            nav._batch.takes_updates = lambda: False  # type: ignore[union-attr, method-assign]
+        for r in stream[:20]:
+            nav.on_reading(r)
+        nav.filter.P = np.full((15, 15), np.nan)  # S = H P Hᵀ + R: NaN, no closed form
+        with np.errstate(invalid="ignore"):
+            for r in stream[20:]:
+                nav.on_reading(r)
+            f = nav.filter
+        outcomes.append((f.ins.t, f.P.tobytes(), dict(f.counts), len(f.rejections),
+                         tuple(numpy_path)))  # fmt: skip
+        numpy_path.clear()
+        huge = Reading(
+            "imu",
+            0.61,
+            0.61,
+            {"angular_rate": np.zeros(3), "specific_force": np.array([1e308, 1e308, 0.0])},
+        )
+        with pytest.raises(ValueError, match=r"update_gravity.*non-finite input"):
+            for k in range(10):
+                nav.on_reading(dataclasses.replace(huge, t=0.61 + 0.01 * k))
+    assert outcomes[0] == outcomes[1]
+    assert len(outcomes[0][4]) == 5  # the gravity updates at 0.2 … 0.6 s took the numpy path

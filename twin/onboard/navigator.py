@@ -187,8 +187,8 @@ class Navigator:
     # ---- inputs --------------------------------------------------------------------------------
     @property
     def filter(self) -> Eskf:
-        """The variant's filter, every IMU sample received so far integrated."""
-        if self._batch is not None and self._batch.readings:
+        """The variant's filter, every IMU sample and depth reading received so far taken."""
+        if self._batch is not None and self._batch.pending:
             self._flush()
         return self._filter
 
@@ -203,10 +203,16 @@ class Navigator:
         if reading.sensor == k.imu:
             self._on_imu(reading)
             return None
-        f = self.filter
         if reading.sensor == k.depth and self.config.depth_aiding:
-            f.update_depth(float(np.asarray(reading["depth_m"]).reshape(-1)[0]))
+            depth = float(np.asarray(reading["depth_m"]).reshape(-1)[0])
+            if self._batch is not None and self._batch.takes_updates():
+                # Queued after the samples kept so far; done, in that order, before anything
+                # reads the filter (the ``filter`` property) or with the next gravity update.
+                self._batch.add_depth(depth)
+            else:
+                self.filter.update_depth(depth)
             return None
+        f = self.filter
         if reading.sensor == k.gravimeter and self.matcher is not None:
             g = float(np.asarray(reading["gravity_mgal"]).reshape(-1)[0])
             self.matcher.update(f, reading.t, g)
@@ -363,9 +369,19 @@ class Navigator:
             self._t_imu = f.t
         self._rate_b = reading["angular_rate"]  # kept as is: converted only when a fix needs it
         if self.config.gravity_aiding and self._t_imu >= self._next_gravity_t - _DUE_TOL_S:
-            self._flush()
-            if f.t >= self._next_gravity_t - _DUE_TOL_S:
-                f.update_gravity()
+            due = self._next_gravity_t - _DUE_TOL_S
+            batch = self._batch
+            if batch is not None and batch.takes_updates():
+                # The kept samples, the queued depth updates and the gravity update (when the
+                # INS's clock reaches its instant) in one compiled call.
+                made = batch.flush(gravity_due=due)
+                self._t_imu = f.t
+            else:
+                self._flush()
+                made = f.t >= due
+                if made:
+                    f.update_gravity()
+            if made:
                 self._gravity_k += 1
                 self._next_gravity_t = (
                     self._gravity_t0 + self._gravity_k / self.config.gravity_rate_hz
