@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 MISSION_S = 600.0
 
+_FILTERS = "INS, covariance, depth + gravity updates (3 filters)"
 # (label, module, class, method): the stages of one physics step and of one camera frame. A stage
 # a revision does not have is skipped there (the driver runs on old revisions too).
 STAGES: tuple[tuple[str, str, str, str], ...] = (
@@ -61,17 +62,15 @@ STAGES: tuple[tuple[str, str, str, str], ...] = (
     # since stop 55 a batch's call makes the depth updates queued among its samples and the
     # gravity update after them (a sample or an update the batch leaves to Python still goes
     # through predict_reading or update_*, inside flush: counted twice; none does in a trial).
-    ("INS, covariance, depth + gravity updates (3 filters)", "twin.onboard.eskf", "Eskf",
-     "predict_reading"),
-    ("INS, covariance, depth + gravity updates (3 filters)", "twin.onboard.imu_batch",
-     "ImuBatch", "flush"),
-    ("INS, covariance, depth + gravity updates (3 filters)", "twin.onboard.eskf", "Eskf",
-     "update_depth"),
-    ("INS, covariance, depth + gravity updates (3 filters)", "twin.onboard.eskf", "Eskf",
-     "update_gravity"),
+    *((_FILTERS, module, cls, name) for module, cls, name in (
+        ("twin.onboard.eskf", "Eskf", "predict_reading"),
+        ("twin.onboard.imu_batch", "ImuBatch", "flush"),
+        ("twin.onboard.eskf", "Eskf", "update_depth"),
+        ("twin.onboard.eskf", "Eskf", "update_gravity"),
+    )),
     ("IMU model", "sensors.imu", "Imu", "sample"),
     ("scoring against truth", "twin.scoring.observer", "RunScorer", "on_step"),
-)
+)  # fmt: skip
 FRAME, COMPASS = STAGES[0][0], STAGES[1][0]
 
 # The children's one timer (this script's and sea_trial_profile.py's): wraps ``owner.name`` so
