@@ -1,10 +1,10 @@
 """Fast paths that keep their reference behind a switch, timed against it in one process (#31).
 
-Two of issue #31's changes keep the path they replaced, behind a class switch, as the reference
-a test holds them to bit for bit. Their gains are a few per cent of a sea trial, less than this
-VM's run-to-run spread (±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot see them;
-here the two paths run in one process on one core, their rounds interleaved, so that the
-machine's hour affects both alike:
+Three of issue #31's changes keep the path they replaced, behind a class switch, as the
+reference a test holds them to bit for bit. Their gains are a few per cent of a sea trial, less
+than this VM's run-to-run spread (±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot
+see them; here the two paths run in one process on one core, their rounds interleaved, so that
+the machine's hour affects both alike:
 
 * ``Simulation.closing_steps``: a block of quiet steps ends with the step after them (its
   physics and IMU sample flown in the block's compiled call, its poll given that sample), or
@@ -12,6 +12,9 @@ machine's hour affects both alike:
   variants, no observers) fly the same flight in alternating chunks of ``--chunk-s``, one with
   each setting; each chunk's wall time (perf_counter) goes to its setting's sum. Their states
   are compared at the end.
+* ``ImuBatch.compiled_updates``: a filter's depth updates queued among its IMU samples and made
+  with them and its gravity update in the batch's compiled call, or each by the filter's Python
+  method when it comes. Timed as ``closing_steps`` is.
 * ``LightFieldTable.compiled``: a frame's table fields interpolated in one compiled pass each
   (``sensors/polarimeter/optics/rt/frame_kernel.py``), or with numpy. The polarimeter's light
   field of a frame (``Polarimeter._frame_constants``, at the sea trial's camera, depth and sun)
@@ -39,6 +42,7 @@ import numpy as np
 
 import scenarios
 from sensors.polarimeter.optics.rt import table as rt_table
+from twin.onboard.imu_batch import ImuBatch
 from twin.record import provenance as pv
 from twin.sim.build import build_simulation
 from twin.sim.step import Simulation
@@ -62,20 +66,21 @@ def _scenario() -> Any:
 def _state(sim: Simulation) -> tuple:
     d = sim.plant.data
     navs = tuple(
-        (n.filter.P.tobytes(), n.filter.ins._c, n.filter.ins.lat, n.filter.ins.h)
+        (n.filter.P.tobytes(), n.filter.ins._c, n.filter.ins.lat, n.filter.ins.h,
+         dict(n.filter.counts), list(n.filter.rejections))
         for n in sim.navigators.values()
-    )
+    )  # fmt: skip
     return d.time, d.qpos.tobytes(), d.qvel.tobytes(), navs
 
 
-def closing_steps(flight_s: float, chunk_s: float) -> dict[str, Any]:
-    """ms per simulated second of the flight with and without closing steps (module docstring)."""
+def flight_switch(owner: type, switch: str, flight_s: float, chunk_s: float) -> dict[str, Any]:
+    """ms per simulated second of the flight with ``owner.switch`` off and on (module docstring)."""
     sc = _scenario()
     sims = {flag: build_simulation(sc) for flag in (False, True)}
     spent = {False: 0.0, True: 0.0}
     try:
         for flag, sim in sims.items():
-            Simulation.closing_steps = flag
+            setattr(owner, switch, flag)
             sim.fly(WARM_S)
         t = WARM_S
         chunks = 0
@@ -83,13 +88,13 @@ def closing_steps(flight_s: float, chunk_s: float) -> dict[str, Any]:
             t = min(t + chunk_s, WARM_S + flight_s)
             order = (False, True) if chunks % 2 == 0 else (True, False)
             for flag in order:
-                Simulation.closing_steps = flag
+                setattr(owner, switch, flag)
                 t0 = time.perf_counter()
                 sims[flag].fly(t)
                 spent[flag] += time.perf_counter() - t0
             chunks += 1
     finally:
-        Simulation.closing_steps = True
+        setattr(owner, switch, True)
     return {
         "flight_s": flight_s,
         "chunk_s": chunk_s,
@@ -147,7 +152,8 @@ def main() -> int:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     except (AttributeError, OSError):
         pass
-    closing = closing_steps(args.flight_s, args.chunk_s)
+    closing = flight_switch(Simulation, "closing_steps", args.flight_s, args.chunk_s)
+    updates = flight_switch(ImuBatch, "compiled_updates", args.flight_s, args.chunk_s)
     fields = frame_fields(args.repeats)
     meta = {
         "machine": platform.platform(),
@@ -158,6 +164,18 @@ def main() -> int:
         "provenance": pv.provenance(),
     }
     c, f = closing, fields
+
+    def flight_row(name: str, c: dict[str, Any]) -> str:
+        return (
+            f"| `{name}`: the sea trial's flight (three variants, no observers), "
+            f"{c['flight_s']:g} s simulated in {c['chunks']} interleaved chunks "
+            f"| {c['without_ms_per_sim_s']:.2f} ms per simulated s "
+            f"| {c['with_ms_per_sim_s']:.2f} ms per simulated s "
+            f"| {c['with_ms_per_sim_s'] - c['without_ms_per_sim_s']:+.2f} ms "
+            f"({100 * (c['with_ms_per_sim_s'] / c['without_ms_per_sim_s'] - 1):+.1f} %) "
+            f"| {'the same state, bit for bit' if c['same_state'] else 'STATES DIFFER'} |"
+        )
+
     lines = [
         "# Fast paths against the references behind their switches, in one process (issue #31)",
         "",
@@ -169,13 +187,8 @@ def main() -> int:
         "",
         "| switch | the reference | the fast path | change | same numbers |",
         "|---|---|---|---|---|",
-        f"| `Simulation.closing_steps`: the sea trial's flight (three variants, no observers), "
-        f"{c['flight_s']:g} s simulated in {c['chunks']} interleaved chunks "
-        f"| {c['without_ms_per_sim_s']:.2f} ms per simulated s "
-        f"| {c['with_ms_per_sim_s']:.2f} ms per simulated s "
-        f"| {c['with_ms_per_sim_s'] - c['without_ms_per_sim_s']:+.2f} ms "
-        f"({100 * (c['with_ms_per_sim_s'] / c['without_ms_per_sim_s'] - 1):+.1f} %) "
-        f"| {'the same state, bit for bit' if c['same_state'] else 'STATES DIFFER'} |",
+        flight_row("Simulation.closing_steps", c),
+        flight_row("ImuBatch.compiled_updates", updates),
         f"| `LightFieldTable.compiled`: a frame's light field (tables at depth and sun) at "
         f"{f['depth_m']:.1f} m, best of {f['repeats']} × 100 "
         f"| {f['numpy_us']:.0f} µs a frame | {f['compiled_us']:.0f} µs a frame "
@@ -184,12 +197,20 @@ def main() -> int:
     ]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "paired_switches.json").write_text(
-        json.dumps({"meta": meta, "closing_steps": closing, "frame_fields": fields}, indent=2)
+        json.dumps(
+            {
+                "meta": meta,
+                "closing_steps": closing,
+                "compiled_updates": updates,
+                "frame_fields": fields,
+            },
+            indent=2,
+        )
         + "\n"
     )
     (RESULTS / "paired_switches.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    return 0 if closing["same_state"] and fields["same_fields"] else 1
+    return 0 if closing["same_state"] and updates["same_state"] and fields["same_fields"] else 1
 
 
 if __name__ == "__main__":

@@ -46,7 +46,7 @@ def test_a_sea_trials_filters_are_the_one_by_one_paths_bit_for_bit(monkeypatch):
     with monkeypatch.context() as m:
         m.setattr(imu_batch, "batchable", lambda reading: False)
         m.setattr("twin.onboard.navigator.batchable", lambda reading: False)
-        m.setattr(imu_batch.ImuBatch, "takes_updates", lambda self: False)
+        m.setattr(imu_batch.ImuBatch, "compiled_updates", False)
         single = build_simulation(sc, 3)
         single.fly(12.03)
     for name, nav in batched.navigators.items():
@@ -243,7 +243,7 @@ def test_queued_depth_updates_and_gravity_in_one_call_are_the_filters_own_update
     stream = _with_depths(400, np.random.default_rng(5))
     nav = Navigator("ins", know, init)
     ref = Navigator("ins", know, init)
-    ref._batch.takes_updates = lambda: False  # type: ignore[union-attr, method-assign]
+    ref._batch.compiled_updates = False  # type: ignore[union-attr]
     for r in stream:
         if not (fan_out and r.sensor == "imu" and Navigator.fan_out_imu([nav], r)):
             nav.on_reading(r)
@@ -274,7 +274,7 @@ def test_updates_the_compiled_algebra_does_not_take_are_the_filters_python_paths
     for python in (False, True):
         nav = Navigator("ins", know, init)
         if python:
-            nav._batch.takes_updates = lambda: False  # type: ignore[union-attr, method-assign]
+            nav._batch.compiled_updates = False  # type: ignore[union-attr]
         for r in stream[:20]:
             nav.on_reading(r)
         nav.filter.P = np.full((15, 15), np.nan)  # S = H P Hᵀ + R: NaN, no closed form

@@ -87,6 +87,11 @@ class ImuBatch:
         f: The filter the samples are for; :func:`compiled_path` must hold.
     """
 
+    #: The depth and gravity updates in the batch's compiled calls; False: each by the filter's
+    #: Python method when its reading or instant comes (the reference the tests and
+    #: ``benchmarks/paired_switches.py`` hold the compiled updates to).
+    compiled_updates: bool = True
+
     def __init__(self, f: Eskf) -> None:
         if not compiled_path(f):
             raise ValueError(
@@ -119,6 +124,8 @@ class ImuBatch:
 
         Checked on every call: a test or a tool may wrap a filter's method on the instance.
         """
+        if not self.compiled_updates:
+            return False
         f = self.filter
         cls = type(f)
         return all(getattr(cls, m) is getattr(Eskf, m) and m not in f.__dict__ for m in _UPDATES)
