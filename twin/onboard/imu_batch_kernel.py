@@ -2,9 +2,10 @@
 
 Between two looks at a filter's state a sea trial's variant integrates ten IMU samples, takes a
 depth reading somewhere among them and a gravity update after the last (10 Hz each). Taken as
-:class:`~twin.onboard.imu_batch.ImuBatch` did before issue #31's last steps, that was two
-flushes and two updates: five compiled calls and ~25 µs of Python around them, per variant and
-per 0.1 s. :func:`run` does the same work in one call: the samples through
+:class:`~twin.onboard.imu_batch.ImuBatch` took them before (its switch
+``compiled_updates`` off), that is two flushes and two updates: five compiled calls and the
+Python between them, per variant and per 0.1 s (``benchmarks/paired_switches.py`` times the
+two). :func:`run` does the same work in one call: the samples through
 :func:`twin.onboard.mechanization.advance_samples` (the covariance step each ``cov_step_s`` by
 :func:`twin.onboard.eskf_kernels.propagate_at`), each queued depth update at its place among
 them and, when asked, the gravity update after them, each by
