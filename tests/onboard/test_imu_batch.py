@@ -217,12 +217,13 @@ def test_a_batch_longer_than_its_arrays_grows_and_keeps_every_sample():
     assert _state(batch.filter) == _state(ref)
 
 
-def _with_depths(n: int, rng: np.random.Generator) -> list[Reading]:
+def _with_depths(n: int, rng: np.random.Generator, bad: tuple[int, ...] = ()) -> list[Reading]:
     """IMU samples at 100 Hz, a turn at 1–1.5 s (not quasi-static), depth readings at 10 Hz
-    between samples (one of them 40 m off: gated out) and one at the stream's end."""
+    between samples (one of them 40 m off: gated out) and one at the stream's end; the samples
+    ``bad`` not finite."""
     out = []
     for k in range(1, n + 1):
-        r = _imu(0.01 * k, rng)
+        r = _imu(0.01 * k, rng, bad=k in bad)
         if 100 <= k < 150:
             r.values["angular_rate"][2] += 0.3
         out.append(r)
@@ -234,15 +235,21 @@ def _with_depths(n: int, rng: np.random.Generator) -> list[Reading]:
 
 
 @pytest.mark.parametrize("fan_out", [False, True])
-def test_queued_depth_updates_and_gravity_in_one_call_are_the_filters_own_updates(fan_out: bool):
+@pytest.mark.parametrize("skipped", [(), (54, 130)])
+def test_queued_depth_updates_and_gravity_in_one_call_are_the_filters_own_updates(
+    fan_out: bool, skipped: tuple[int, ...]
+):
     """The batch's compiled work (samples, the depth updates queued among them, the gravity
     update after them) against the filter's Python updates, each made when its reading came:
-    the same state bit for bit, the same rejections and counts, updates of every outcome."""
+    the same state bit for bit, the same rejections and counts, updates of every outcome (and
+    with samples skipped as not finite: the one before a depth reading, one at a gravity
+    update's instant)."""
     know = VehicleKnowledge(dt.datetime(2021, 9, 3, 2, 30), 37.54, 122.06)
     init = NavState(0.0, LAT, math.radians(122.06), -10.0)
-    stream = _with_depths(400, np.random.default_rng(5))
-    nav = Navigator("ins", know, init)
-    ref = Navigator("ins", know, init)
+    stream = _with_depths(400, np.random.default_rng(5), skipped)
+    cfg = NavigatorConfig(eskf=EskfConfig(ins=InsConfig(on_nonfinite="skip")))
+    nav = Navigator("ins", know, init, cfg)
+    ref = Navigator("ins", know, init, cfg)
     ref._batch.compiled_updates = False  # type: ignore[union-attr]
     for r in stream:
         if not (fan_out and r.sensor == "imu" and Navigator.fan_out_imu([nav], r)):
@@ -253,6 +260,7 @@ def test_queued_depth_updates_and_gravity_in_one_call_are_the_filters_own_update
     assert _state(a) == _state(b)
     assert (nav._gravity_k, nav._next_gravity_t) == (ref._gravity_k, ref._next_gravity_t)
     assert a.counts["depth"] == 40 and a.counts["gravity"] > 20 and a.counts["not_static"] > 0
+    assert a.ins.skipped == len(skipped)
     assert [(x.t, x.kind) for x in a.rejections] == [(pytest.approx(2.54), "depth")]
 
 
