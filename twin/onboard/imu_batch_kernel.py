@@ -52,6 +52,33 @@ def _rate_q(q_diag, qc, gain, w2_dt, dt):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def _propagate_and_update(z, hm, r, gate, lat, lon, h, v, c, f_b, bg, ba, pending, w2_dt, p,
+                          consts):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:meth:`~twin.onboard.eskf.Eskf._propagate_and_update` at this state.
+
+    Returns (status, NIS, P, pending, w2_dt, (C, v, L, λ, h, b_g, b_a)): status 0 (Python's
+    numpy path) with everything as given; else P propagated (and updated when applied), the
+    state corrected when applied.
+    """
+    (_, _, free_air, earth, _, fmat, index, q_diag, qc, gain, eye) = consts[:11]
+    if pending > 0.0:
+        qd, qcd = _rate_q(q_diag, qc, gain, w2_dt, pending)
+    else:
+        qd, qcd = q_diag, qc
+    status, nis, p0, p1, corrected = eskf_kernels.propagate_update_at(
+        pending, p, fmat, index, lat, lon, h, v, c, f_b, bg, ba, free_air, earth, qd, qcd, eye,
+        hm, r, z, gate,
+    )  # fmt: skip
+    kept = (c, v, lat, lon, h, bg, ba)
+    if status == 0:
+        return 0, 0.0, p, pending, w2_dt, kept
+    w2 = 0.0 if pending > 0.0 else w2_dt  # _rate_q's reset, when it ran
+    if status == APPLIED:
+        return APPLIED, nis, p1, 0.0, w2, corrected
+    return status, nis, p0, 0.0, w2, kept
+
+
+@njit(cache=True)
 def _gravity_update(t, lat, lon, h, v, c, bg, ba, f_b, pending, f_sum, w_sum, n_sum, w2_dt, p,
                     consts):  # type: ignore[no-untyped-def]  # fmt: skip
     """:meth:`~twin.onboard.eskf.Eskf.update_gravity` from the mean sample, at this state.
@@ -59,8 +86,8 @@ def _gravity_update(t, lat, lon, h, v, c, bg, ba, f_b, pending, f_sum, w_sum, n_
     Returns (outcome, NIS, P, pending, f_sum, w_sum, n_sum, w2_dt, (C, v, L, λ, h, b_g, b_a));
     outcome 0 (Python's: the numpy path, or the error a non-finite mean raises) changes nothing.
     """
-    (_, _, free_air, earth, _, fmat, index, q_diag, qc, gain, eye, _, _, _, r_gravity, gate3,
-     models_bias, tol_a, tol_w) = consts  # fmt: skip
+    (_, _, free_air, earth, _, _, _, _, _, _, _, _, _, _, r_gravity, gate3, models_bias, tol_a,
+     tol_w) = consts  # fmt: skip
     kept = (c, v, lat, lon, h, bg, ba)
     if n_sum == 0:
         return NO_SAMPLES, 0.0, p, pending, f_sum, w_sum, n_sum, w2_dt, kept
@@ -86,20 +113,12 @@ def _gravity_update(t, lat, lon, h, v, c, bg, ba, f_b, pending, f_sum, w_sum, n_
     z[1] = -(c[3] * fx + c[4] * fy + c[5] * fz)
     z[2] = g - (c[6] * fx + c[7] * fy + c[8] * fz)
     hm = eskf_kernels.gravity_rows(g, c, models_bias)
-    if pending > 0.0:
-        qd, qcd = _rate_q(q_diag, qc, gain, w2_dt, pending)
-    else:
-        qd, qcd = q_diag, qc
-    status, nis, p0, p1, corrected = eskf_kernels.propagate_update_at(
-        pending, p, fmat, index, lat, lon, h, v, c, f_b, bg, ba, free_air, earth, qd, qcd, eye,
-        hm, r_gravity, z, gate3,
-    )  # fmt: skip
+    status, nis, p1, pending1, w2, state = _propagate_and_update(
+        z, hm, r_gravity, gate3, lat, lon, h, v, c, f_b, bg, ba, pending, w2_dt, p, consts
+    )
     if status == 0:
         return 0, 0.0, p, pending, f_sum, w_sum, n_sum, w2_dt, kept
-    w2 = 0.0 if pending > 0.0 else w2_dt
-    if status == APPLIED:
-        return APPLIED, nis, p1, 0.0, zero, zero, 0, w2, corrected
-    return GATED, nis, p0, 0.0, zero, zero, 0, w2, kept
+    return status, nis, p1, pending1, zero, zero, 0, w2, state
 
 
 @njit(cache=True)
@@ -154,24 +173,14 @@ def run(  # type: ignore[no-untyped-def]
         # Eskf.update_depth(d): z = h + d, then Eskf._propagate_and_update.
         z = np.empty(1)
         z[0] = h + dval[u]
-        if pending > 0.0:
-            qd, qcd = _rate_q(q_diag, qc, gain, w2_dt, pending)
-        else:
-            qd, qcd = q_diag, qc
-        status, nis, p0, p1, corrected = eskf_kernels.propagate_update_at(
-            pending, p, fmat, index, lat, lon, h, v, c, f_b, bg, ba, free_air, earth, qd, qcd,
-            eye, h_depth, r_depth, z, gate1,
-        )  # fmt: skip
+        status, nis, p1, pending1, w2, corrected = _propagate_and_update(
+            z, h_depth, r_depth, gate1, lat, lon, h, v, c, f_b, bg, ba, pending, w2_dt, p, consts
+        )
         if status == 0:  # Python's numpy path: the update left undone
             why = PYTHON_UPDATE
             break
-        if pending > 0.0:
-            pending = 0.0
-            w2_dt = 0.0
-        p = p0
-        if status == APPLIED:
-            p = p1
-            c, v, lat, lon, h, bg, ba = corrected
+        p, pending, w2_dt = p1, pending1, w2
+        c, v, lat, lon, h, bg, ba = corrected
         out_code[n_out] = status
         out_kind[n_out] = DEPTH
         out_nis[n_out] = nis
