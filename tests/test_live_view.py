@@ -17,6 +17,8 @@ import pytest
 from rrd_helpers import entities
 
 import scenarios
+from twin.core.messages import Reading
+from twin.record.recorder import FLUSH_EVERY_S, LIVE_FLUSH_EVERY_S, Recorder
 from twin.record.rrd_files import salvage
 
 
@@ -39,25 +41,30 @@ def _run(tmp: Path, out: Path, *extra: str) -> subprocess.CompletedProcess:
     )  # fmt: skip
 
 
-def test_a_run_streams_to_a_live_server_and_the_file_is_unchanged(tmp_path: Path) -> None:
-    port = _free_port()
-    received = tmp_path / "received.rrd"
+def _server(port: int, received: Path) -> subprocess.Popen:
+    """Rerun's own server on ``port``, saving what arrives to ``received``, once it listens."""
     server = subprocess.Popen(
         [sys.executable, "-m", "rerun", "--port", str(port), "--save", str(received)],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
     )
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
+            return server
+        except OSError:
+            time.sleep(0.2)
+    server.kill()
+    pytest.fail("the Rerun server did not start listening")
+
+
+def test_a_run_streams_to_a_live_server_and_the_file_is_unchanged(tmp_path: Path) -> None:
+    port = _free_port()
+    received = tmp_path / "received.rrd"
+    server = _server(port, received)
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            try:
-                socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
-                break
-            except OSError:
-                time.sleep(0.2)
-        else:
-            pytest.fail("the Rerun server did not start listening")
         live = _run(
             tmp_path, tmp_path / "live", "--connect", f"rerun+http://127.0.0.1:{port}/proxy"
         )
@@ -86,3 +93,31 @@ def test_connecting_to_nothing_is_a_clear_error_before_the_run(tmp_path: Path) -
     assert not (tmp_path / "o" / "metrics.json").exists()
     proc = _run(tmp_path, tmp_path / "o", "--connect", "127.0.0.1:9876")
     assert proc.returncode == 2 and "is not a Rerun gRPC URL" in proc.stderr
+
+
+def test_a_live_viewer_is_flushed_to_more_often_than_a_file(tmp_path: Path) -> None:
+    """A file alone is written every FLUSH_EVERY_S of sim time (cheaper); a live viewer every
+    LIVE_FLUSH_EVERY_S, so that it sees the run that little behind."""
+    import datetime as dt
+
+    import numpy as np
+
+    assert LIVE_FLUSH_EVERY_S < FLUSH_EVERY_S
+    start = dt.datetime(2024, 6, 21, tzinfo=dt.UTC)
+    port = _free_port()
+    received = tmp_path / "received.rrd"
+    server = _server(port, received)
+    try:
+        url = f"rerun+http://127.0.0.1:{port}/proxy"
+        with Recorder(tmp_path / "live.rrd", recording_id="l", start_utc=start, live=url) as rec:
+            assert rec.flush_every_s == LIVE_FLUSH_EVERY_S
+            for k in range(round(LIVE_FLUSH_EVERY_S * 100) + 1):
+                t = k * 0.01
+                rec.log_reading(Reading("imu", t, t, {"accel": np.array([k, 0.0, 9.81])}))
+        with Recorder(tmp_path / "file.rrd", recording_id="f", start_utc=start) as rec:
+            assert rec.flush_every_s == FLUSH_EVERY_S
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.wait(timeout=60)
+    got = entities(salvage(received, tmp_path / "received_footered.rrd"))
+    assert got["/sensors/imu/accel"] == round(LIVE_FLUSH_EVERY_S * 100) + 1

@@ -20,7 +20,7 @@ from rerun.chunk import ChunkStore, LazyStore, RrdReader
 from twin.core.frames import euler_to_quat
 from twin.core.messages import Reading
 from twin.record.blueprint import default_blueprint
-from twin.record.recorder import MAX_SERIES_WIDTH, Recorder
+from twin.record.recorder import FLUSH_EVERY_S, MAX_SERIES_WIDTH, Recorder
 from twin.record.rrd_files import salvage
 
 START = dt.datetime(2024, 6, 21, 10, 30, 15, 250000, tzinfo=dt.UTC)
@@ -120,7 +120,7 @@ def _values(table: pa.Table, column: str = "Scalars:scalars") -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def run_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _record(tmp_path_factory.mktemp("rec") / "run.rrd")
+    return _record(tmp_path_factory.mktemp("rec") / "run.rrd", flush_every_s=5.0)
 
 
 @pytest.fixture(scope="module")
@@ -457,7 +457,7 @@ def test_exception_mid_run_leaves_readable_file(tmp_path: Path) -> None:
 
 
 def test_same_inputs_give_same_summary(tmp_path: Path, store: LazyStore) -> None:
-    again = RrdReader(_record(tmp_path / "again.rrd")).store()
+    again = RrdReader(_record(tmp_path / "again.rrd", flush_every_s=5.0)).store()
     assert again.summary() == store.summary()
     np.testing.assert_array_equal(
         _values(_table(again, "/truth/rpy_deg")), _values(_table(store, "/truth/rpy_deg"))
@@ -475,6 +475,24 @@ def test_auto_flush_writes_while_running(tmp_path: Path) -> None:
             live = RrdReader(path).stream().collect()
         assert _summary_rows(live.summary())["/sensors/imu/accel"] == 202
     assert _summary_rows(RrdReader(path).store().summary())["/sensors/imu/accel"] == 250
+
+
+def test_a_file_alone_is_written_every_flush_every_s_of_sim_time(tmp_path: Path) -> None:
+    # The default for a file alone (no live viewer): FLUSH_EVERY_S of sim time buffered.
+    path = tmp_path / "default.rrd"
+    n = round(FLUSH_EVERY_S / DT)
+    with Recorder(path, recording_id="default", start_utc=START) as rec:
+        assert rec.flush_every_s == FLUSH_EVERY_S
+        for k in range(n):  # 0 .. FLUSH_EVERY_S - DT: nothing written yet
+            rec.log_reading(Reading("imu", k * DT, k * DT, {"accel": _accel(k)}))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "RRD file has no footer" while it is being written
+            assert "/sensors/imu/accel" not in _summary_rows(
+                RrdReader(path).stream().collect().summary()
+            )
+            rec.log_reading(Reading("imu", n * DT, n * DT, {"accel": _accel(n)}))
+            live = RrdReader(path).stream().collect()
+        assert _summary_rows(live.summary())["/sensors/imu/accel"] == n + 1
 
 
 _KILLED_RUN = """

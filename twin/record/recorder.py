@@ -61,6 +61,16 @@ from twin.record.rrd_files import compact
 # skipped (and listed in ``Recorder.skipped_channels``); log images with ``log_image``.
 MAX_SERIES_WIDTH = 16
 
+#: Sim-time span buffered before the columns are written, for a file alone: a killed process
+#: (a crash the run cannot catch) loses at most this much of the recording, ~1 s of wall time
+#: at the sea trial's speed. Each flush costs ~10 ms whatever it holds (one chunk per entity,
+#: ~45 entities) and leaves its chunks for the compaction to merge: 30 s rather than 5 s took a
+#: recorded 600 s trial's flushes from 1.27 s to 0.41 s and its compaction from 0.63 s to 0.22 s
+#: (issue #31; benchmarks/sea_trial_rtf.py's recorded rows).
+FLUSH_EVERY_S = 30.0
+#: The same with a live viewer: it sees the run at most this far behind.
+LIVE_FLUSH_EVERY_S = 5.0
+
 _NS_PER_S = 1_000_000_000
 _EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 _XYZ = ("x", "y", "z")
@@ -128,8 +138,9 @@ class Recorder:
         application_id: Rerun application id (groups recordings in the viewer).
         recording_id: Unique id of this recording (the run id).
         start_utc: UTC instant of sim time 0 (timezone-aware).
-        flush_every_s: Sim-time span buffered before the columns are written; a crash loses at most
-            this much.
+        flush_every_s: Sim-time span buffered before the columns are written; a killed process
+            loses at most this much. ``None``: :data:`FLUSH_EVERY_S` for a file alone,
+            :data:`LIVE_FLUSH_EVERY_S` with ``live``.
         blueprint: The layout to store with the file; ``None`` stores
             :func:`~twin.record.blueprint.default_blueprint`.
         path_period_s: Sim-time spacing of the path-travelled segments in ``/world/path``.
@@ -148,7 +159,7 @@ class Recorder:
         application_id: str = "auv_twin",
         recording_id: str,
         start_utc: dt.datetime,
-        flush_every_s: float = 5.0,
+        flush_every_s: float | None = None,
         blueprint: rrb.Blueprint | None = None,
         variants: Sequence[str] = (),
         path_period_s: float = 0.5,
@@ -158,6 +169,8 @@ class Recorder:
     ) -> None:
         if start_utc.tzinfo is None or start_utc.utcoffset() is None:
             raise ValueError(f"start_utc = {start_utc!r}: must be timezone-aware (UTC)")
+        if flush_every_s is None:
+            flush_every_s = FLUSH_EVERY_S if live is None else LIVE_FLUSH_EVERY_S
         if not (flush_every_s > 0 and math.isfinite(flush_every_s)):
             raise ValueError(f"flush_every_s = {flush_every_s!r}: must be a finite number > 0")
         if not (path_period_s > 0 and math.isfinite(path_period_s)):
@@ -220,6 +233,11 @@ class Recorder:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+    @property
+    def flush_every_s(self) -> float:
+        """The sim-time span buffered before the columns are written (the constructor's)."""
+        return self._flush_every_s
 
     @property
     def closed(self) -> bool:

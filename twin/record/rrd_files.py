@@ -47,10 +47,11 @@ def salvage(src: Path | str, dst: Path | str) -> Path:
 def compact(path: Path | str) -> Path:
     """Rewrite a closed recording in compact chunks (``rerun rrd optimize``), in place.
 
-    While a run flies, the recorder flushes every few simulated seconds so that a killed run
-    leaves a readable file; that leaves ~50 times more chunks than the 2 MiB target (``rerun rrd
-    stats``: 1964 chunks against a lower bound of 40 for the default trial). Compacting the
-    closed file brings it to the bound (measured: 38 of 38) in ~0.3 s. The original is kept if
+    While a run flies, the recorder flushes every ``FLUSH_EVERY_S`` of simulated time (30 s; 5 s
+    with a live viewer, :mod:`twin.record.recorder`) so that a killed run leaves a readable file;
+    that leaves one chunk per entity per flush, far more than the 2 MiB target needs (at a 5 s
+    cadence, ``rerun rrd stats``: 1964 chunks against a lower bound of 40 for the default trial).
+    Compacting the closed file brings it to the bound (measured: 38 of 38). The original is kept if
     the CLI fails.
     """
     path = Path(path)
