@@ -15,6 +15,13 @@ the machine's hour affects both alike:
 * ``ImuBatch.compiled_updates``: a filter's depth updates queued among its IMU samples and made
   with them and its gravity update in the batch's compiled call, or each by the filter's Python
   method when it comes. Timed as ``closing_steps`` is.
+* ``Recorder(flush_every_s=...)``: the recording written every ``FLUSH_EVERY_S`` of simulated
+  time (30 s, the default for a file alone) or every ``LIVE_FLUSH_EVERY_S`` (5 s, a live
+  viewer's, the default for every recording before). Three simulations of the sea trial, each
+  with the run's scorer, fly in interleaved chunks: one unrecorded, one recorded at each
+  cadence (the run's recorder and its scene, no chase camera); closing each recording (its last
+  flush, footer and compaction) is counted to it. The two recordings' rows per entity are
+  compared.
 * ``LightFieldTable.compiled``: a frame's table fields interpolated in one compiled pass each
   (``sensors/polarimeter/optics/rt/frame_kernel.py``), or with numpy. The polarimeter's light
   field of a frame (``Polarimeter._frame_constants``, at the sea trial's camera, depth and sun)
@@ -33,6 +40,7 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
 import timeit
 from pathlib import Path
@@ -44,6 +52,10 @@ import scenarios
 from sensors.polarimeter.optics.rt import table as rt_table
 from twin.onboard.imu_batch import ImuBatch
 from twin.record import provenance as pv
+from twin.record.observer import RunRecorder, log_scene
+from twin.record.recorder import FLUSH_EVERY_S, LIVE_FLUSH_EVERY_S, Recorder
+from twin.record.rrd_files import compact
+from twin.scoring.observer import RunScorer
 from twin.sim.build import build_simulation
 from twin.sim.step import Simulation
 
@@ -105,6 +117,72 @@ def flight_switch(owner: type, switch: str, flight_s: float, chunk_s: float) -> 
     }
 
 
+def _rows(path: Path) -> dict[str, int]:
+    """Entity path -> its temporal rows in a closed recording."""
+    from rerun.experimental import RrdReader
+
+    rows: dict[str, int] = {}
+    for line in RrdReader(path).store().summary().splitlines():
+        parts = line.split()
+        if parts and "static=False" in line:
+            n = next((int(p.split("=")[1]) for p in parts if p.startswith("rows=")), 0)
+            rows[parts[0]] = rows.get(parts[0], 0) + n
+    return rows
+
+
+def recording_cadence(flight_s: float, chunk_s: float) -> dict[str, Any]:
+    """ms per simulated second unrecorded and recorded at each cadence (module docstring)."""
+    sc = _scenario()
+    cadences = {"none": None, "live": LIVE_FLUSH_EVERY_S, "file": FLUSH_EVERY_S}
+    spent = dict.fromkeys(cadences, 0.0)
+    with tempfile.TemporaryDirectory() as tmp:
+        sims, recs, recorders = {}, {}, {}
+        for name, every in cadences.items():
+            sim = sims[name] = build_simulation(sc)
+            scorer = RunScorer(sim)
+            sim.observers[:] = [scorer]
+            if every is not None:
+                rec = recs[name] = Recorder(
+                    Path(tmp) / f"{name}.rrd",
+                    recording_id=name,
+                    start_utc=sc.start_utc,
+                    flush_every_s=every,
+                    variants=tuple(sim.navigators),
+                    compact=False,
+                )
+                log_scene(rec, sim)
+                recorders[name] = RunRecorder(rec, sim, scorer, None)
+                sim.observers.append(recorders[name])
+            sim.fly(WARM_S)
+        t, chunks, names = WARM_S, 0, list(cadences)
+        while t < WARM_S + flight_s - 1e-9:
+            t = min(t + chunk_s, WARM_S + flight_s)
+            for name in names[chunks % 3 :] + names[: chunks % 3]:  # each first in turn
+                t0 = time.perf_counter()
+                sims[name].fly(t)
+                spent[name] += time.perf_counter() - t0
+            chunks += 1
+        for name, rec in recs.items():
+            t0 = time.perf_counter()
+            recorders[name].close()
+            rec.close()
+            compact(rec.path)
+            spent[name] += time.perf_counter() - t0
+        rows = {name: _rows(rec.path) for name, rec in recs.items()}
+    ms = {name: 1e3 * v / flight_s for name, v in spent.items()}
+    return {
+        "flight_s": flight_s,
+        "chunk_s": chunk_s,
+        "chunks": chunks,
+        "live_flush_every_s": LIVE_FLUSH_EVERY_S,
+        "file_flush_every_s": FLUSH_EVERY_S,
+        "unrecorded_ms_per_sim_s": ms["none"],
+        "live_ms_per_sim_s": ms["live"],
+        "file_ms_per_sim_s": ms["file"],
+        "same_rows": rows["live"] == rows["file"] and bool(rows["file"]),
+    }
+
+
 def frame_fields(repeats: int) -> dict[str, Any]:
     """µs per frame of a frame's light field, the table's fields compiled or with numpy."""
     sim = build_simulation(_scenario())
@@ -154,6 +232,7 @@ def main() -> int:
         pass
     closing = flight_switch(Simulation, "closing_steps", args.flight_s, args.chunk_s)
     updates = flight_switch(ImuBatch, "compiled_updates", args.flight_s, args.chunk_s)
+    cadence = recording_cadence(args.flight_s, args.chunk_s)
     fields = frame_fields(args.repeats)
     meta = {
         "machine": platform.platform(),
@@ -163,7 +242,7 @@ def main() -> int:
         "args": vars(args),
         "provenance": pv.provenance(),
     }
-    c, f = closing, fields
+    c, f, r = closing, fields, cadence
 
     def flight_row(name: str, c: dict[str, Any]) -> str:
         return (
@@ -189,6 +268,17 @@ def main() -> int:
         "|---|---|---|---|---|",
         flight_row("Simulation.closing_steps", c),
         flight_row("ImuBatch.compiled_updates", updates),
+        f"| `Recorder(flush_every_s=...)`: the sea trial's flight with the run's scorer, "
+        f"{r['flight_s']:g} s simulated in {r['chunks']} interleaved chunks, recorded (closing "
+        f"and compaction counted in); unrecorded {r['unrecorded_ms_per_sim_s']:.2f} ms per "
+        f"simulated s beside them "
+        f"| every {r['live_flush_every_s']:g} s: {r['live_ms_per_sim_s']:.2f} ms per simulated s "
+        f"(the recording {r['live_ms_per_sim_s'] - r['unrecorded_ms_per_sim_s']:.2f}) "
+        f"| every {r['file_flush_every_s']:g} s: {r['file_ms_per_sim_s']:.2f} ms per simulated s "
+        f"(the recording {r['file_ms_per_sim_s'] - r['unrecorded_ms_per_sim_s']:.2f}) "
+        f"| {r['file_ms_per_sim_s'] - r['live_ms_per_sim_s']:+.2f} ms "
+        f"({100 * (r['file_ms_per_sim_s'] / r['live_ms_per_sim_s'] - 1):+.1f} %) "
+        f"| {'the same rows of every entity' if r['same_rows'] else 'ROWS DIFFER'} |",
         f"| `LightFieldTable.compiled`: a frame's light field (tables at depth and sun) at "
         f"{f['depth_m']:.1f} m, best of {f['repeats']} × 100 "
         f"| {f['numpy_us']:.0f} µs a frame | {f['compiled_us']:.0f} µs a frame "
@@ -202,6 +292,7 @@ def main() -> int:
                 "meta": meta,
                 "closing_steps": closing,
                 "compiled_updates": updates,
+                "recording_cadence": cadence,
                 "frame_fields": fields,
             },
             indent=2,
@@ -210,7 +301,8 @@ def main() -> int:
     )
     (RESULTS / "paired_switches.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    return 0 if closing["same_state"] and updates["same_state"] and fields["same_fields"] else 1
+    same = closing["same_state"] and updates["same_state"] and cadence["same_rows"]
+    return 0 if same and fields["same_fields"] else 1
 
 
 if __name__ == "__main__":
