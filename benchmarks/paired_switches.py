@@ -119,7 +119,7 @@ def flight_switch(owner: type, switch: str, flight_s: float, chunk_s: float) -> 
 
 def _rows(path: Path) -> dict[str, int]:
     """Entity path -> its temporal rows in a closed recording."""
-    from rerun.experimental import RrdReader
+    from rerun.chunk import RrdReader
 
     rows: dict[str, int] = {}
     for line in RrdReader(path).store().summary().splitlines():
