@@ -1,10 +1,11 @@
 """Fast paths that keep their reference behind a switch, timed against it in one process (#31).
 
 Three of issue #31's changes keep the path they replaced, behind a class switch, as the
-reference a test holds them to bit for bit. Their gains are a few per cent of a sea trial, less
-than this VM's run-to-run spread (±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot
-see them; here the two paths run in one process on one core, their rounds interleaved, so that
-the machine's hour affects both alike:
+reference a test holds them to bit for bit; a fourth, the recording's cadence, is an argument.
+Their gains are a few per cent of a sea trial, less than this VM's run-to-run spread
+(±10–20 %), so ``sea_trial_rtf.py``'s separate runs cannot see them; here the two paths run in
+one process on one core, their rounds interleaved, so that the machine's hour affects both
+alike:
 
 * ``Simulation.closing_steps``: a block of quiet steps ends with the step after them (its
   physics and IMU sample flown in the block's compiled call, its poll given that sample), or

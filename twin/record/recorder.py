@@ -64,9 +64,9 @@ MAX_SERIES_WIDTH = 16
 #: Sim-time span buffered before the columns are written, for a file alone: a killed process
 #: (a crash the run cannot catch) loses at most this much of the recording, ~1 s of wall time
 #: at the sea trial's speed. Each flush costs ~10 ms whatever it holds (one chunk per entity,
-#: ~45 entities) and leaves its chunks for the compaction to merge: 30 s rather than 5 s took a
-#: recorded 600 s trial's flushes from 1.27 s to 0.41 s and its compaction from 0.63 s to 0.22 s
-#: (issue #31; benchmarks/sea_trial_rtf.py's recorded rows).
+#: ~45 entities) and leaves its chunks for the compaction to merge: 30 s rather than 5 s took the
+#: sea trial's recording from 7.3 to 4.6 ms per simulated second (issue #31;
+#: benchmarks/paired_switches.py times both in one process).
 FLUSH_EVERY_S = 30.0
 #: The same with a live viewer: it sees the run at most this far behind.
 LIVE_FLUSH_EVERY_S = 5.0
