@@ -22,7 +22,8 @@ alike:
   with the run's scorer, fly in interleaved chunks: one unrecorded, one recorded at each
   cadence (the run's recorder and its scene, no chase camera); closing each recording (its last
   flush, footer and compaction) is counted to it. The two recordings' rows per entity are
-  compared.
+  compared. Its gain is near the interleaving's own spread: the comparison runs
+  ``--cadence-runs`` times, each run's change reported beside their mean.
 * ``LightFieldTable.compiled``: a frame's table fields interpolated in one compiled pass each
   (``sensors/polarimeter/optics/rt/frame_kernel.py``), or with numpy. The polarimeter's light
   field of a frame (``Polarimeter._frame_constants``, at the sea trial's camera, depth and sun)
@@ -226,6 +227,7 @@ def main() -> int:
     ap.add_argument("--flight-s", type=float, default=300.0)
     ap.add_argument("--chunk-s", type=float, default=2.0)
     ap.add_argument("--repeats", type=int, default=20)
+    ap.add_argument("--cadence-runs", type=int, default=3)
     args = ap.parse_args()
     try:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -233,7 +235,16 @@ def main() -> int:
         pass
     closing = flight_switch(Simulation, "closing_steps", args.flight_s, args.chunk_s)
     updates = flight_switch(ImuBatch, "compiled_updates", args.flight_s, args.chunk_s)
-    cadence = recording_cadence(args.flight_s, args.chunk_s)
+    cadence_runs = [
+        recording_cadence(args.flight_s, args.chunk_s) for _ in range(max(1, args.cadence_runs))
+    ]
+    keys = ("unrecorded_ms_per_sim_s", "live_ms_per_sim_s", "file_ms_per_sim_s")
+    cadence = {
+        **cadence_runs[0],
+        **{k: float(np.mean([c[k] for c in cadence_runs])) for k in keys},
+        "runs": cadence_runs,
+        "same_rows": all(c["same_rows"] for c in cadence_runs),
+    }
     fields = frame_fields(args.repeats)
     meta = {
         "machine": platform.platform(),
@@ -260,8 +271,8 @@ def main() -> int:
         "# Fast paths against the references behind their switches, in one process (issue #31)",
         "",
         f"`python benchmarks/paired_switches.py --flight-s {args.flight_s:g} --chunk-s "
-        f"{args.chunk_s:g} --repeats {args.repeats}`, one core, {meta['date']}, "
-        f"{meta['machine']}, CPUs {meta['cpu_affinity']}, load average "
+        f"{args.chunk_s:g} --repeats {args.repeats} --cadence-runs {args.cadence_runs}`, "
+        f"one core, {meta['date']}, {meta['machine']}, CPUs {meta['cpu_affinity']}, load average "
         f"{meta['load_average_1_5_15']}.",
         f"- {'; '.join(pv.describe(meta['provenance']))}",
         "",
@@ -278,7 +289,13 @@ def main() -> int:
         f"| every {r['file_flush_every_s']:g} s: {r['file_ms_per_sim_s']:.2f} ms per simulated s "
         f"(the recording {r['file_ms_per_sim_s'] - r['unrecorded_ms_per_sim_s']:.2f}) "
         f"| {r['file_ms_per_sim_s'] - r['live_ms_per_sim_s']:+.2f} ms "
-        f"({100 * (r['file_ms_per_sim_s'] / r['live_ms_per_sim_s'] - 1):+.1f} %) "
+        f"({100 * (r['file_ms_per_sim_s'] / r['live_ms_per_sim_s'] - 1):+.1f} %; the mean of "
+        f"{len(r['runs'])} runs: "
+        + ", ".join(
+            f"{100 * (x['file_ms_per_sim_s'] / x['live_ms_per_sim_s'] - 1):+.1f} %"
+            for x in r["runs"]
+        )
+        + ") "
         f"| {'the same rows of every entity' if r['same_rows'] else 'ROWS DIFFER'} |",
         f"| `LightFieldTable.compiled`: a frame's light field (tables at depth and sun) at "
         f"{f['depth_m']:.1f} m, best of {f['repeats']} × 100 "
