@@ -65,7 +65,7 @@ MAX_SERIES_WIDTH = 16
 #: (a crash the run cannot catch) loses at most this much of the recording, ~1 s of wall time
 #: at the sea trial's speed. Each flush costs ~10 ms whatever it holds (one chunk per entity,
 #: ~45 entities) and leaves its chunks for the compaction to merge: 30 s rather than 5 s took the
-#: sea trial's recording from 7.3 to 4.6 ms per simulated second (issue #31;
+#: sea trial's recording from 6.7 to 4.4 ms per simulated second (issue #31;
 #: benchmarks/paired_switches.py times both in one process).
 FLUSH_EVERY_S = 30.0
 #: The same with a live viewer: it sees the run at most this far behind.
