@@ -11,9 +11,11 @@ import socket
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pytest
+from rerun.chunk import RrdReader
 from rrd_helpers import entities
 
 import scenarios
@@ -109,11 +111,18 @@ def test_a_live_viewer_is_flushed_to_more_often_than_a_file(tmp_path: Path) -> N
     server = _server(port, received)
     try:
         url = f"rerun+http://127.0.0.1:{port}/proxy"
-        with Recorder(tmp_path / "live.rrd", recording_id="l", start_utc=start, live=url) as rec:
+        live_file = tmp_path / "live.rrd"
+        with Recorder(live_file, recording_id="l", start_utc=start, live=url) as rec:
             assert rec.flush_every_s == LIVE_FLUSH_EVERY_S
             for k in range(round(LIVE_FLUSH_EVERY_S * 100) + 1):
                 t = k * 0.01
                 rec.log_reading(Reading("imu", t, t, {"accel": np.array([k, 0.0, 9.81])}))
+            # Written at t = LIVE_FLUSH_EVERY_S, before the recording closes (its file sink is
+            # fed by the same stream as the viewer).
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # "RRD file has no footer" while it is open
+                written = RrdReader(live_file).stream().collect().summary()
+            assert "/sensors/imu/accel" in written
         with Recorder(tmp_path / "file.rrd", recording_id="f", start_utc=start) as rec:
             assert rec.flush_every_s == FLUSH_EVERY_S
     finally:
