@@ -34,7 +34,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sea_trial_rtf import TIMER  # noqa: E402  (the children's one timer)
+from sea_trial_rtf import CHILD_HEAD, TIMER  # noqa: E402  (the children's start and timer)
 
 _OBSERVER = "the recorder as an observer of the steps (all it does in the flight)"
 _PICTURES = "the polarimeter's three pictures a frame"
@@ -65,26 +65,14 @@ STAGES: tuple[tuple[str, str, str, str, str], ...] = (
 )  # fmt: skip
 
 _CHILD = (
-    r"""
-import collections, dataclasses, functools, importlib, json, os, sys, tempfile, time
-try:
-    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-except (AttributeError, OSError):
-    pass
-a = json.loads(sys.argv[1])
-import scenarios
-from twin.app.run import run_scenario
-"""
+    CHILD_HEAD
     + TIMER
     + r"""
 acc, calls = collections.defaultdict(float), collections.Counter()
 for label, _, mod, cls, name in a["stages"]:
     m = importlib.import_module(mod)
     wrap_timer(getattr(m, cls) if cls else m, name, label, acc, calls)
-sc = scenarios.load("sea_trial_10m")
-mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
-sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
-    navigation=dataclasses.replace(sc.navigation, variants=("ins", "pol", "lig")))
+sc = sea_trial(a["mission_s"], ("ins", "pol", "lig"))
 with tempfile.TemporaryDirectory() as d:
     t0 = time.perf_counter()
     m = run_scenario(sc, d, camera=False, record=True)

@@ -89,10 +89,11 @@ def wrap_timer(owner, name, label, acc, calls):
     setattr(owner, name, functools.wraps(fn)(timed))
 """
 
-# One row, in a fresh interpreter on one core: argv[1] = JSON {variants, record, breakdown,
-# stages, mission_s}; prints one JSON line. Uses only what every revision since #10 has.
-_CHILD = (
-    r"""
+# The children's common start (this script's and recording_profile.py's): pinned to one core,
+# argv[1] read as JSON into ``a``, and ``sea_trial(mission_s, variants)``: sea_trial_10m's square
+# flown twice (~800 s of legs), cut at the duration, so that every row is a full run. Plain
+# Python that every revision since #10 runs.
+CHILD_HEAD = r"""
 import collections, dataclasses, functools, importlib, json, os, sys, tempfile, time
 try:
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -101,7 +102,17 @@ except (AttributeError, OSError):
 a = json.loads(sys.argv[1])
 import scenarios
 from twin.app.run import run_scenario
+def sea_trial(mission_s, variants):
+    sc = scenarios.load("sea_trial_10m")
+    mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
+    return dataclasses.replace(sc, duration_s=mission_s, mission=mission,
+        navigation=dataclasses.replace(sc.navigation, variants=tuple(variants)))
 """
+
+# One row, in a fresh interpreter on one core: argv[1] = JSON {variants, record, breakdown,
+# stages, mission_s}; prints one JSON line. Uses only what every revision since #10 has.
+_CHILD = (
+    CHILD_HEAD
     + TIMER
     + r"""
 acc = collections.defaultdict(float)
@@ -114,11 +125,7 @@ if a["breakdown"]:
         except (ImportError, AttributeError):
             continue
         wrap_timer(owner, name, label, acc, calls)
-sc = scenarios.load("sea_trial_10m")
-# The square twice (~800 s of legs), cut at the duration: every row is a full run.
-mission = dataclasses.replace(sc.mission, legs=sc.mission.legs * 2)
-sc = dataclasses.replace(sc, duration_s=a["mission_s"], mission=mission,
-    navigation=dataclasses.replace(sc.navigation, variants=tuple(a["variants"])))
+sc = sea_trial(a["mission_s"], a["variants"])
 with tempfile.TemporaryDirectory() as d:
     # CPU: this process's threads and the children it waited for (the recording's compaction).
     t0, c0 = time.perf_counter(), sum(os.times()[:4])
