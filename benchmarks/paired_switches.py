@@ -20,8 +20,9 @@ alike:
   time (30 s, the default for a file alone) or every ``LIVE_FLUSH_EVERY_S`` (5 s, a live
   viewer's, the default for every recording before). Three simulations of the sea trial, each
   with the run's scorer, fly in interleaved chunks: one unrecorded, one recorded at each
-  cadence (the run's recorder and its scene, no chase camera); closing each recording (its last
-  flush, footer and compaction) is counted to it. The two recordings' rows per entity are
+  cadence (the run's recorder and its scene, no chase camera, not the run loop's control
+  series: 0.08 ms per simulated second in ``recording_profile.py``); closing each recording
+  (its last flush, footer and compaction) is counted to it. The two recordings' rows per entity are
   compared. Its gain is near the interleaving's own spread: the comparison runs
   ``--cadence-runs`` times, each run's change reported beside their mean.
 * ``LightFieldTable.compiled``: a frame's table fields interpolated in one compiled pass each
