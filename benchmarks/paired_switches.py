@@ -57,7 +57,7 @@ from twin.onboard.imu_batch import ImuBatch
 from twin.record import provenance as pv
 from twin.record.observer import RunRecorder, log_scene
 from twin.record.recorder import FLUSH_EVERY_S, LIVE_FLUSH_EVERY_S, Recorder
-from twin.record.rrd_files import compact
+from twin.record.rrd_files import compact, entity_rows
 from twin.scoring.observer import RunScorer
 from twin.sim.build import build_simulation
 from twin.sim.step import Simulation
@@ -120,19 +120,6 @@ def flight_switch(owner: type, switch: str, flight_s: float, chunk_s: float) -> 
     }
 
 
-def _rows(path: Path) -> dict[str, int]:
-    """Entity path -> its temporal rows in a closed recording."""
-    from rerun.chunk import RrdReader
-
-    rows: dict[str, int] = {}
-    for line in RrdReader(path).store().summary().splitlines():
-        parts = line.split()
-        if parts and "static=False" in line:
-            n = next((int(p.split("=")[1]) for p in parts if p.startswith("rows=")), 0)
-            rows[parts[0]] = rows.get(parts[0], 0) + n
-    return rows
-
-
 def recording_cadence(flight_s: float, chunk_s: float) -> dict[str, Any]:
     """ms per simulated second unrecorded and recorded at each cadence (module docstring)."""
     sc = _scenario()
@@ -171,7 +158,7 @@ def recording_cadence(flight_s: float, chunk_s: float) -> dict[str, Any]:
             rec.close()
             compact(rec.path)
             spent[name] += time.perf_counter() - t0
-        rows = {name: _rows(rec.path) for name, rec in recs.items()}
+        rows = {name: entity_rows(rec.path) for name, rec in recs.items()}
     ms = {name: 1e3 * v / flight_s for name, v in spent.items()}
     return {
         "flight_s": flight_s,
